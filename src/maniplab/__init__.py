@@ -1,0 +1,59 @@
+"""maniplab: a design environment for serial (hydraulic) manipulators, built on MuJoCo.
+
+Public API::
+
+    import maniplab as ml
+    spec = ml.load_spec("arm.yaml")          # or ml.builtin_spec("erector"); ml.builtin_specs()
+    spec2 = spec.with_overrides({"end_effector.mass": 800.0})
+    xml = ml.to_mjcf(spec)                   # MJCF text at full float precision
+    model = ml.build_model(spec)             # mujoco.MjModel
+"""
+
+from __future__ import annotations
+
+from importlib.metadata import PackageNotFoundError, version
+
+from maniplab.builtin import builtin_spec, builtin_specs, resolve_spec
+from maniplab.errors import ManiplabError, ModelError, SpecError
+from maniplab.mjcf_gen import build_model, to_mjcf
+from maniplab.spec import (
+    Axis,
+    Body,
+    EndEffector,
+    Friction,
+    FrictionModel,
+    HydraulicActuator,
+    Joint,
+    JointType,
+    ManipulatorSpec,
+    TorqueActuator,
+)
+from maniplab.specfile import load_spec
+
+try:
+    __version__ = version("maniplab")
+except PackageNotFoundError:  # running from a source tree without installation
+    __version__ = "0+unknown"
+
+__all__ = [
+    "Axis",
+    "Body",
+    "EndEffector",
+    "Friction",
+    "FrictionModel",
+    "HydraulicActuator",
+    "Joint",
+    "JointType",
+    "ManipulatorSpec",
+    "ManiplabError",
+    "ModelError",
+    "SpecError",
+    "TorqueActuator",
+    "__version__",
+    "build_model",
+    "builtin_spec",
+    "builtin_specs",
+    "load_spec",
+    "resolve_spec",
+    "to_mjcf",
+]
