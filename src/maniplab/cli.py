@@ -1,0 +1,134 @@
+"""The ``maniplab`` command: one sub-command per job.
+
+Bad input (a spec error, a malformed argument) prints one line on stderr and exits with status 2;
+it never shows a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import NoReturn
+
+EXIT_BAD_INPUT = 2
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors (no usage dump), exit status 2."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
+
+
+def _spec_argument(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("spec", metavar="SPEC",
+                        help="a spec file (YAML) or the name of a built-in spec (see 'maniplab info --list')")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of the ``maniplab`` command."""
+    from maniplab import __version__
+
+    parser = _Parser(prog="maniplab", description=(
+        "Design environment for serial (hydraulic) manipulators on MuJoCo. SPEC is a YAML spec "
+        "file or a built-in spec name (erector, planar2, crane3)."))
+    parser.add_argument("--version", action="version", version=f"maniplab {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+
+    info = sub.add_parser("info", help="print a table of the arm's joints, bodies, actuators, limits",
+                          description="Print a table of joints, bodies, masses, actuators and limits.")
+    info.add_argument("spec", metavar="SPEC", nargs="?", help="a spec file or built-in name")
+    info.add_argument("--list", action="store_true", help="list the built-in specs")
+    info.set_defaults(func=_cmd_info)
+
+    export = sub.add_parser("export", help="write the arm's MJCF model",
+                            description="Write the MuJoCo model (MJCF, full float precision).")
+    _spec_argument(export)
+    export.add_argument("-o", "--output", required=True, type=Path, metavar="FILE",
+                        help="the MJCF file to write (e.g. arm.xml)")
+    export.set_defaults(func=_cmd_export)
+
+    validate = sub.add_parser("validate", help="check a spec and that MuJoCo can build it",
+                              description="Validate a spec file and compile its MuJoCo model.")
+    _spec_argument(validate)
+    validate.set_defaults(func=_cmd_validate)
+
+    demo = sub.add_parser("demo", help="run the main job on the built-in erector",
+                          description="Export the erector's MJCF and print its summary.")
+    demo.add_argument("-o", "--output", type=Path, default=Path("out/demo"), metavar="DIR",
+                      help="folder for the results (default: out/demo)")
+    demo.set_defaults(func=_cmd_demo)
+    return parser
+
+
+def _cmd_info(args: argparse.Namespace) -> int:
+    import maniplab as ml
+    from maniplab.summary import spec_table
+
+    if args.list or args.spec is None:
+        print("built-in specs: " + ", ".join(ml.builtin_specs()))
+        return 0
+    print(spec_table(ml.resolve_spec(args.spec)))
+    return 0
+
+
+def _cmd_export(args: argparse.Namespace) -> int:
+    import maniplab as ml
+
+    spec = ml.resolve_spec(args.spec)
+    ml.mjcf_gen.write_mjcf(spec, args.output)
+    print(f"wrote {args.output} ({spec.name}, {spec.n} joints)")
+    return 0
+
+
+def _cmd_validate(args: argparse.Namespace) -> int:
+    import maniplab as ml
+
+    spec = ml.resolve_spec(args.spec)
+    model = ml.build_model(spec)
+    print(f"ok: {spec.name} is valid ({spec.n} joints, {model.nbody - 1} bodies, "
+          f"{model.nu} actuators)")
+    return 0
+
+
+def _cmd_demo(args: argparse.Namespace) -> int:
+    import maniplab as ml
+    from maniplab.summary import spec_table
+
+    spec = ml.builtin_spec("erector")
+    path = args.output / "erector.xml"
+    ml.mjcf_gen.write_mjcf(spec, path)
+    print(spec_table(spec))
+    print(f"\nMJCF model: {path}  (open it with: python -m mujoco.viewer --mjcf={path})")
+    return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``maniplab`` console script; returns the exit status."""
+    os.environ.setdefault("MUJOCO_GL", "egl")
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.command is None:
+        parser.print_help()
+        return EXIT_BAD_INPUT
+    from maniplab.errors import ManiplabError
+
+    try:
+        return args.func(args)
+    except ManiplabError as exc:
+        print(f"maniplab {args.command}: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except OSError as exc:
+        print(f"maniplab {args.command}: {exc.strerror or exc}: {exc.filename or ''}".rstrip(": "),
+              file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print(f"maniplab {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,57 @@
+"""Plain-text summary of a spec: one row per joint (what ``maniplab info`` prints)."""
+
+from __future__ import annotations
+
+from maniplab.spec import HydraulicActuator, Joint, ManipulatorSpec, TorqueActuator
+
+_HEADER = ("joint", "type", "axis", "limits", "body length", "direction", "mass [kg]",
+           "actuator", "friction")
+
+
+def spec_table(spec: ManipulatorSpec) -> str:
+    """A table of joints, bodies, masses, actuators and limits, followed by totals."""
+    rows = [_HEADER] + [_row(joint) for joint in spec.joints]
+    widths = [max(len(row[i]) for row in rows) for i in range(len(_HEADER))]
+    lines = ["  ".join(cell.ljust(w) for cell, w in zip(row, widths)).rstrip() for row in rows]
+    lines.insert(1, "  ".join("-" * w for w in widths))
+    ee = spec.end_effector
+    total = sum(j.body.mass for j in spec.joints if j.body) + ee.mass
+    lines += [
+        "",
+        f"end-effector: {ee.mass:g} kg at offset {_vec(ee.offset)} m",
+        f"gravity: {_vec(spec.gravity)} m/s²    total moving mass: {total:g} kg",
+    ]
+    return f"{spec.name}: {spec.n} joints" + (f" ({spec.source})" if spec.source else "") + \
+        "\n\n" + "\n".join(lines)
+
+
+def _row(joint: Joint) -> tuple[str, ...]:
+    unit = "m" if joint.prismatic else "rad"
+    limits = f"[{joint.limits[0]:g}, {joint.limits[1]:g}] {unit}" if joint.limits else "-"
+    body = joint.body
+    return (
+        joint.name,
+        "P" if joint.prismatic else "R",
+        joint.axis.value,
+        limits,
+        f"{body.length:g} m" if body else "-",
+        _vec(body.direction) if body else "-",
+        f"{body.mass:g}" if body else "-",
+        _actuator(joint),
+        joint.friction.model.value,
+    )
+
+
+def _actuator(joint: Joint) -> str:
+    act = joint.actuator
+    if isinstance(act, HydraulicActuator):
+        unit = "m²" if joint.prismatic else "m³/rad"
+        return f"hydraulic A={act.area:g} {unit} Ps={act.supply_pressure / 1e6:g} MPa"
+    if isinstance(act, TorqueActuator):
+        name = "force" if joint.prismatic else "torque"
+        return name + (f" |u|<={act.limit:g}" if act.limit else "")
+    return str(getattr(act, "type", act))
+
+
+def _vec(values: tuple[float, ...]) -> str:
+    return "[" + ", ".join(f"{v:g}" for v in values) + "]"
