@@ -1,0 +1,106 @@
+"""Finding a C compiler and building a shared library (CPython extension) from generated C."""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import os
+import shlex
+import shutil
+import subprocess
+import sysconfig
+from pathlib import Path
+
+#: Flags: optimise; keep IEEE semantics (no fused multiply-add contraction, so C and the Python
+#: fallback evaluate the same operations); -fno-math-errno only lets sin/cos be merged into sincos.
+CFLAGS = ("-O2", "-fPIC", "-shared", "-ffp-contract=off", "-fno-math-errno", "-w")
+
+
+@dataclasses.dataclass(frozen=True)
+class Compiler:
+    """A working C compiler and what it needs to build an extension.
+
+    Attributes:
+        command: the compiler command (argv prefix), e.g. ["gcc"].
+        version: its first ``--version`` line (part of cache keys).
+        python_include: folder with Python.h, or None (then only ctypes can load the library).
+        numpy_include: folder with numpy/arrayobject.h, or None.
+    """
+
+    command: tuple[str, ...]
+    version: str
+    python_include: str | None
+    numpy_include: str | None
+
+    @property
+    def can_build_extension(self) -> bool:
+        return self.python_include is not None and self.numpy_include is not None
+
+    @property
+    def ident(self) -> str:
+        """What identifies the compiler's output: command, version, extension ability."""
+        return f"{' '.join(self.command)} | {self.version} | ext={self.can_build_extension}"
+
+
+@functools.lru_cache(maxsize=None)
+def find_compiler() -> Compiler | None:
+    """The C compiler to use ($CC, Python's configured CC, cc, gcc or clang), or None.
+
+    Set ``MANIPLAB_CC=none`` to pretend there is no compiler (the pure-Python backend is used).
+    """
+    if os.environ.get("MANIPLAB_CC", "").lower() == "none":
+        return None
+    candidates = [os.environ.get("MANIPLAB_CC"), os.environ.get("CC"), sysconfig.get_config_var("CC"),
+                  "cc", "gcc", "clang"]
+    for candidate in candidates:
+        if not candidate:
+            continue
+        command = tuple(shlex.split(candidate))
+        if not command or shutil.which(command[0]) is None:
+            continue
+        try:
+            proc = subprocess.run([*command, "--version"], capture_output=True, text=True, timeout=30)
+        except (OSError, subprocess.SubprocessError):
+            continue
+        if proc.returncode == 0:
+            text = (proc.stdout or proc.stderr).strip()
+            version = text.splitlines()[0] if text else ""
+            return Compiler(command, version, _python_include(), _numpy_include())
+    return None
+
+
+def _python_include() -> str | None:
+    include = sysconfig.get_paths().get("include")
+    return include if include and Path(include, "Python.h").exists() else None
+
+
+def _numpy_include() -> str | None:
+    try:
+        import numpy
+
+        include = numpy.get_include()
+    except (ImportError, AttributeError):
+        return None
+    return include if Path(include, "numpy", "arrayobject.h").exists() else None
+
+
+class CompileError(RuntimeError):
+    """The C compiler failed on generated code (a maniplab bug, or a broken toolchain)."""
+
+
+def compile_shared(compiler: Compiler, source: Path, output: Path, *, extension: bool) -> None:
+    """Compile ``source`` into the shared library ``output``.
+
+    Args:
+        extension: also build the CPython extension part (needs Python's and numpy's headers).
+
+    Raises:
+        CompileError: with the compiler's message when compilation fails.
+    """
+    argv = [*compiler.command, *CFLAGS, str(source), "-o", str(output)]
+    if extension:
+        argv += ["-DML_PYTHON", f"-I{compiler.python_include}", f"-I{compiler.numpy_include}"]
+    argv.append("-lm")
+    proc = subprocess.run(argv, capture_output=True, text=True)
+    if proc.returncode != 0:
+        raise CompileError(f"C compilation failed ({shlex.join(argv)}):\n{proc.stderr[-4000:]}")

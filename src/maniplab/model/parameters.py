@@ -1,0 +1,209 @@
+"""The spec's physical parameters as they enter the equations: symbols, numbers or runtime slots.
+
+Each quantity of the arm (a body's mass, centre of gravity, inertia and offset, the payload, the
+gravity vector, the viscous friction) enters the derivation as one of
+
+- a **named symbol** (``m1``, ``l2``, ``me``...) when its group is asked to stay symbolic, so a
+  designer can read how it enters M, C and G;
+- a **number** otherwise (the readable, numeric form);
+- a **slot** ``p0, p1, ...`` (mode ``slots``): every non-zero value becomes an entry of a runtime
+  parameter vector. Exact zeros stay zeros, so the generated code depends only on the arm's
+  *structure* (axes, joint types, which values are zero) and one compiled kernel serves every arm of
+  that structure: a payload or mass sweep never recompiles.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+from collections.abc import Iterable
+from typing import Any
+
+import numpy as np
+
+from maniplab.model.engine import Engine, Expr, Mat, Vec
+from maniplab.spec import ManipulatorSpec, inertia_matrix
+
+#: Parameter groups that SymbolicModel can keep as symbols, and the symbols they introduce.
+GROUPS: dict[str, str] = {
+    "mass": "m1..mn: body masses, kg (bodies with mass only)",
+    "length": "l1..ln: body lengths, m (bodies with length only); a default COG stays l/2",
+    "com": "c1x..: body centres of gravity in the joint frame, m",
+    "inertia": "I1xx..: body inertias about the COG, kg·m² (non-zero entries only)",
+    "payload": "me: end-effector (payload) mass, kg",
+    "offset": "ex, ey, ez: end-effector offset, m (non-zero entries only)",
+    "gravity": "gx, gy, gz: gravity, m/s² (non-zero entries only)",
+    "friction": "fv1..fvn: viscous friction, N·s/m or N·m·s/rad",
+}
+
+_AXES = "xyz"
+_INERTIA_KEYS = ((0, 0, "xx"), (1, 1, "yy"), (2, 2, "zz"), (0, 1, "xy"), (0, 2, "xz"), (1, 2, "yz"))
+
+
+@dataclasses.dataclass
+class BodyTerms:
+    """One body's parameters as expressions (all in its joint frame, base axes at q = 0).
+
+    Attributes:
+        mass: kg.
+        com: centre of gravity, m, three expressions.
+        inertia: about the COG, kg·m², 3x3 nested list.
+        offset: translation to the next joint (length · direction), m, three expressions.
+    """
+
+    mass: Expr
+    com: Vec
+    inertia: Mat
+    offset: Vec
+
+
+@dataclasses.dataclass
+class ArmTerms:
+    """The whole arm's parameters as expressions, plus the slot values (mode ``slots``).
+
+    Attributes:
+        bodies: one per joint (zeros where the joint has no body).
+        ee_mass: payload mass, kg.
+        ee_offset: payload position in the last frame, m.
+        gravity: m/s², base axes.
+        viscous: viscous friction per joint.
+        slot_values: value of each slot symbol p0, p1, ... in order, shape (P,).
+        slot_labels: what each slot is (e.g. "q2 body mass, kg").
+        symbols: the named parameter symbols with their spec values (symbolic groups).
+    """
+
+    bodies: list[BodyTerms]
+    ee_mass: Expr
+    ee_offset: Vec
+    gravity: Vec
+    viscous: list[Expr]
+    slot_values: list[float] = dataclasses.field(default_factory=list)
+    slot_labels: list[str] = dataclasses.field(default_factory=list)
+    symbols: dict[Any, float] = dataclasses.field(default_factory=dict)
+
+
+class _Maker:
+    """Makes each quantity a named symbol, a number or a slot, and records what it made."""
+
+    def __init__(self, engine: Engine, symbolic: frozenset[str], slots: bool) -> None:
+        self.engine = engine
+        self.symbolic = symbolic
+        self.slots = slots
+        self.values: list[float] = []
+        self.labels: list[str] = []
+        self.symbols: dict[Any, float] = {}
+
+    def __call__(self, group: str, name: str, value: float, label: str) -> Expr:
+        value = float(value)
+        if value == 0.0:
+            return self.engine.zero
+        if group in self.symbolic:
+            sym = self.engine.symbol(name)
+            self.symbols[sym] = value
+            return sym
+        if self.slots:
+            self.values.append(value)
+            self.labels.append(label)
+            return self.engine.symbol(f"p{len(self.values) - 1}")
+        return self.engine.number(value)
+
+
+def arm_terms(
+    spec: ManipulatorSpec, engine: Engine, symbolic: Iterable[str] = (), slots: bool = False
+) -> ArmTerms:
+    """The spec's parameters as expressions for a derivation.
+
+    Args:
+        spec: the arm.
+        engine: the symbolic library.
+        symbolic: groups kept as named symbols (keys of :data:`GROUPS`).
+        slots: make every other non-zero value a runtime slot ``p<k>`` instead of a number.
+
+    Raises:
+        ValueError: for an unknown group.
+    """
+    symbolic = frozenset(symbolic)
+    unknown = symbolic - GROUPS.keys()
+    if unknown:
+        raise ValueError(f"unknown parameter group(s) {sorted(unknown)}; expected some of "
+                         f"{', '.join(GROUPS)}")
+    make = _Maker(engine, symbolic, slots)
+    bodies = [_body_terms(spec, j, make) for j in range(spec.n)]
+    ee = spec.end_effector
+    return ArmTerms(
+        bodies=bodies,
+        ee_mass=make("payload", "me", ee.mass, "end-effector mass, kg"),
+        ee_offset=[make("offset", f"e{a}", v, f"end-effector offset {a}, m")
+                   for a, v in zip(_AXES, ee.offset)],
+        gravity=[make("gravity", f"g{a}", v, f"gravity {a}, m/s^2")
+                 for a, v in zip(_AXES, spec.gravity)],
+        viscous=[make("friction", f"fv{j + 1}", joint.friction.viscous, f"{joint.name} viscous")
+                 for j, joint in enumerate(spec.joints)],
+        slot_values=make.values, slot_labels=make.labels, symbols=make.symbols,
+    )
+
+
+def _body_terms(spec: ManipulatorSpec, j: int, make: _Maker) -> BodyTerms:
+    joint, k, zero = spec.joints[j], j + 1, make.engine.zero
+    body = joint.body
+    if body is None:
+        return BodyTerms(zero, [zero] * 3, [[zero] * 3 for _ in range(3)], [zero] * 3)
+    e = np.asarray(body.direction)
+    mass = make("mass", f"m{k}", body.mass, f"{joint.name} body mass, kg")
+    if "length" in make.symbolic and body.length > 0.0:
+        length = make("length", f"l{k}", body.length, "")
+        offset = [length * make.engine.number(c) for c in e]
+    else:
+        offset = [make("length", "", body.length * c, f"{joint.name} body offset {a}, m")
+                  for a, c in zip(_AXES, e)]
+    com = _com_terms(joint.name, k, body, e, offset, make)
+    inertia = _inertia_terms(joint.name, k, body, e, mass, offset, make)
+    return BodyTerms(mass, com, inertia, offset)
+
+
+def _com_terms(name: str, k: int, body: Any, e: np.ndarray, offset: Vec, make: _Maker) -> Vec:
+    default = np.allclose(body.com, 0.5 * body.length * e, rtol=0.0, atol=1e-15)
+    if default and "length" in make.symbolic and "com" not in make.symbolic:
+        return [c * make.engine.rational(1, 2) for c in offset]
+    return [make("com", f"c{k}{a}", v, f"{name} body COG {a}, m") for a, v in zip(_AXES, body.com)]
+
+
+def _inertia_terms(name: str, k: int, body: Any, e: np.ndarray, mass: Expr, offset: Vec,
+                   make: _Maker) -> Mat:
+    matrix = inertia_matrix(body.inertia)
+    rod = body.mass * body.length**2 / 12.0 * (np.eye(3) - np.outer(e, e))
+    readable = make.symbolic & {"mass", "length"} and "inertia" not in make.symbolic
+    if readable and np.allclose(matrix, rod, rtol=1e-12, atol=1e-300):
+        # the spec's default slender rod, written as m l²/12 (1 - e eᵀ) in the symbols
+        length_sq = sum(c * c for c in offset)
+        scale = mass * length_sq * make.engine.rational(1, 12)
+        eye = np.eye(3) - np.outer(e, e)
+        return [[scale * make.engine.number(eye[r][c]) for c in range(3)] for r in range(3)]
+    out = [[make.engine.zero] * 3 for _ in range(3)]
+    for r, c, axes in _INERTIA_KEYS:
+        out[r][c] = out[c][r] = make("inertia", f"I{k}{axes}", matrix[r, c],
+                                     f"{name} body inertia {axes}, kg m^2")
+    return out
+
+
+def structure_key(spec: ManipulatorSpec) -> str:
+    """A digest of everything the slot-mode equations depend on (not the non-zero values).
+
+    Two specs with the same digest share one generated kernel: axes, joint types, and which
+    parameter values are exactly zero.
+    """
+    def nz(values: Iterable[float]) -> list[int]:
+        return [int(float(v) != 0.0) for v in values]
+
+    rows: list[Any] = []
+    for joint in spec.joints:
+        body = joint.body
+        row: list[Any] = [joint.type.value, joint.axis.value, nz([joint.friction.viscous])]
+        if body is not None:
+            row += [nz([body.mass]), nz(body.length * np.asarray(body.direction)), nz(body.com),
+                    nz(body.inertia)]
+        rows.append(row)
+    ee = spec.end_effector
+    rows.append([nz([ee.mass]), nz(ee.offset), nz(spec.gravity)])
+    return hashlib.sha256(json.dumps(rows).encode()).hexdigest()
