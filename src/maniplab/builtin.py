@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import difflib
 import os
 from importlib import resources
 from pathlib import Path
@@ -22,21 +23,37 @@ def builtin_specs() -> list[str]:
 
 def builtin_spec(name: str) -> ManipulatorSpec:
     """The built-in spec called ``name``; raises SpecError listing the names when unknown."""
-    if name not in builtin_specs():
-        raise SpecError(f"no built-in spec '{name}'; expected one of {', '.join(builtin_specs())}")
+    names = builtin_specs()
+    if name not in names:
+        raise SpecError(
+            f"no built-in spec {name!r}; expected one of {', '.join(names)}{_hint(name)}"
+        )
     return load_spec(_assets() / f"{name}.yaml")
+
+
+def _hint(name: str) -> str:
+    close = difflib.get_close_matches(str(name), builtin_specs(), n=1)
+    return f"; did you mean '{close[0]}'?" if close else ""
 
 
 def resolve_spec(spec: str | os.PathLike[str] | ManipulatorSpec) -> ManipulatorSpec:
     """A spec from a spec object, a file path, or a built-in name (a file of that name wins)."""
     if isinstance(spec, ManipulatorSpec):
         return spec
+    if not isinstance(spec, (str, os.PathLike)):
+        raise SpecError(
+            f"expected a spec, a spec file or a built-in name, got {type(spec).__name__}"
+        )
     path = Path(spec)
-    if path.exists() or str(spec) not in builtin_specs():
-        if not path.exists() and path.suffix == "" and os.sep not in str(spec):
+    try:
+        exists = path.exists()
+    except (OSError, ValueError):
+        exists = False
+    if exists or str(spec) not in builtin_specs():
+        if not exists and path.suffix == "" and os.sep not in str(spec):
             raise SpecError(
-                f"no such file and no built-in spec of that name; built-ins are "
-                f"{', '.join(builtin_specs())}",
+                f"no such file and no built-in spec of that name; expected a spec file or one "
+                f"of the built-ins {', '.join(builtin_specs())}{_hint(str(spec))}",
                 file=str(spec),
             )
         return load_spec(path)

@@ -45,7 +45,14 @@ class SpecError(ManiplabError, ValueError):
             where.append(f"joint {self.joint}")
         if self.field:
             where.append(f"field '{self.field}'")
-        return (", ".join(where) + ": " if where else "") + self.problem
+        return _one_line((", ".join(where) + ": " if where else "") + self.problem)
+
+
+def _one_line(text: str) -> str:
+    """Escape line breaks and other unprintable characters (e.g. from a key typed as "a\\nb")."""
+    if text.isprintable():
+        return text
+    return "".join(c if c.isprintable() else c.encode("unicode_escape").decode() for c in text)
 
 
 class ModelError(ManiplabError):

@@ -12,6 +12,9 @@ field                      default
 name                       the file's stem, or "manipulator"
 gravity                    [0, 0, -9.81] m/s²
 joints[].name              q1 .. qn
+joints[].type              (required) R or P; also accepted, in any case: Tr, revolute,
+                           rotational, hinge (-> R); prismatic, translational, slide (-> P)
+joints[].axis              (required) x, y or z (X, Y, Z accepted)
 joints[].limits            none (the joint is unlimited)
 joints[].body              none: no connecting body (the paper's l_b = 0, m_b = 0)
 body.length                0 m
@@ -27,29 +30,93 @@ friction.*                 0 (stribeck_velocity 0.01 m/s or rad/s, stick_velocit
                            sigma0 1e5, sigma1 316.2)
 end_effector               mass 0 kg, offset [0, 0, 0] m, size derived from the mass (visual only)
 =========================  ===================================================================
+
+Numbers may be written as integers or floats (``1e-11`` is a float); booleans, text, NaN and
+infinities are rejected where a number is expected. Vectors are lists of exactly 3 numbers
+(``limits`` 2, ``inertia`` 6). Any bad input raises :class:`~maniplab.errors.SpecError`, also
+when a dataclass is constructed directly in Python.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import enum
+import functools
 import math
 from collections.abc import Mapping
 from typing import Annotated, Any, Literal, Union
 
 import numpy as np
-from pydantic import AfterValidator, BeforeValidator, ConfigDict, Field, Strict, field_validator
-from pydantic.dataclasses import dataclass
+from pydantic import (
+    AfterValidator,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    Strict,
+    ValidationError,
+    field_validator,
+)
+from pydantic.dataclasses import dataclass as _pydantic_dataclass
+from pydantic_core import PydanticCustomError
 
 from maniplab.errors import SpecError
 
 _CONFIG = ConfigDict(extra="forbid", allow_inf_nan=False)
 _NAME_PATTERN = r"^[A-Za-z_][A-Za-z0-9_\-]*$"
 
-Real = Annotated[float, Strict()]
-NonNegative = Annotated[float, Strict(), Field(ge=0.0)]
-Positive = Annotated[float, Strict(), Field(gt=0.0)]
-Vec3 = tuple[Real, Real, Real]
+
+
+def _number(value: Any) -> Any:
+    """Accept numpy scalars as floats; reject integers too large for a float."""
+    if isinstance(value, (bool, np.bool_)):
+        return value  # rejected by the strict float schema: True is not a number
+    if isinstance(value, (np.integer, np.floating)):
+        return float(value)
+    if isinstance(value, int):
+        try:
+            return float(value)
+        except OverflowError:
+            raise PydanticCustomError(
+                "finite_number", "Input should be a finite number"
+            ) from None
+    return value
+
+
+def _sequence(value: Any) -> Any:
+    """Accept lists, tuples and numpy arrays as vectors; reject sets, mappings, text, generators."""
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, (list, tuple)):
+        return value
+    raise PydanticCustomError("tuple_type", "Input should be a valid list")
+
+
+Real = Annotated[float, Strict(), BeforeValidator(_number)]
+NonNegative = Annotated[float, Strict(), Field(ge=0.0), BeforeValidator(_number)]
+Positive = Annotated[float, Strict(), Field(gt=0.0), BeforeValidator(_number)]
+Vec3 = Annotated[tuple[Real, Real, Real], BeforeValidator(_sequence)]
+
+
+def dataclass(**kwargs: Any) -> Any:
+    """A frozen pydantic dataclass whose constructor raises SpecError instead of ValidationError."""
+
+    def wrap(cls: type) -> type:
+        cls = _pydantic_dataclass(**kwargs)(cls)
+        init = cls.__init__
+
+        @functools.wraps(init)
+        def __init__(self: Any, *args: Any, **kw: Any) -> None:
+            try:
+                init(self, *args, **kw)
+            except ValidationError as exc:
+                from maniplab import specfile
+
+                raise specfile.translate_errors(exc.errors(), {}, None, {}) from None
+
+        cls.__init__ = __init__  # type: ignore[method-assign]
+        return cls
+
+    return wrap
 
 
 class JointType(str, enum.Enum):
@@ -80,15 +147,22 @@ class FrictionModel(str, enum.Enum):
     lugre = "lugre"
 
 
-_JOINT_TYPE_ALIASES = {"tr": "P", "r": "R", "p": "P", "revolute": "R", "prismatic": "P"}
+_JOINT_TYPE_ALIASES = {
+    "r": "R", "revolute": "R", "rotational": "R", "hinge": "R",
+    "p": "P", "tr": "P", "prismatic": "P", "translational": "P", "slide": "P",
+}  # fmt: skip
 
 
 def _joint_type_alias(value: Any) -> Any:
     return _JOINT_TYPE_ALIASES.get(value.lower(), value) if isinstance(value, str) else value
 
 
+def _axis_alias(value: Any) -> Any:
+    return value.lower() if isinstance(value, str) and value.lower() in ("x", "y", "z") else value
+
+
 def _unit_direction(value: tuple[float, float, float]) -> tuple[float, float, float]:
-    norm = math.sqrt(sum(c * c for c in value))
+    norm = math.hypot(*value)  # hypot neither overflows nor underflows
     if norm == 0.0:
         raise ValueError("direction is zero; expected a unit vector such as [1, 0, 0]")
     if abs(norm - 1.0) > 1e-3:
@@ -96,6 +170,8 @@ def _unit_direction(value: tuple[float, float, float]) -> tuple[float, float, fl
             f"direction {list(value)} has length {norm:.4g}; expected a unit vector "
             f"(e.g. {[round(c / norm, 4) for c in value]})"
         )
+    if abs(norm - 1.0) <= 1e-12:  # already unit: keep it bit for bit, so load(dump(s)) == s
+        return value
     return tuple(c / norm for c in value)  # type: ignore[return-value]
 
 
@@ -107,25 +183,34 @@ def inertia_matrix(inertia: tuple[float, ...]) -> np.ndarray:
 
 def _physical_inertia(value: tuple[float, ...]) -> tuple[float, ...]:
     if min(value[:3]) < 0.0:
-        raise ValueError(f"inertia {list(value)} has a negative moment; Ixx, Iyy, Izz must be >= 0")
-    moments = np.linalg.eigvalsh(inertia_matrix(value))
-    tol = 1e-9 * max(float(np.max(np.abs(moments))), 1e-300)
+        raise ValueError(
+            f"inertia {list(value)} has a negative moment; expected Ixx, Iyy, Izz >= 0"
+        )
+    scale = max(abs(v) for v in value)
+    if scale == 0.0:
+        return value
+    # Scaled to 1 so that neither the eigenvalues nor the sums below overflow.
+    moments = np.linalg.eigvalsh(inertia_matrix(tuple(v / scale for v in value)))
+    tol = 1e-9
+    shown = np.array2string(moments * scale, precision=4)
     if moments[0] < -tol:
         raise ValueError(
-            f"inertia {list(value)} is not positive semi-definite (principal moments "
-            f"{np.array2string(moments, precision=4)}); a rigid body's inertia must be"
+            f"inertia {list(value)} is not positive semi-definite (principal moments {shown}); "
+            "expected a rigid body's inertia, whose principal moments are all >= 0"
         )
     a, b, c = moments
     if a + b < c - tol:
         raise ValueError(
-            f"inertia {list(value)} violates the triangle inequality (principal moments "
-            f"{np.array2string(moments, precision=4)}: I1 + I2 >= I3 holds for any rigid body)"
+            f"inertia {list(value)} violates the triangle inequality (principal moments {shown}); "
+            "expected I1 + I2 >= I3, which holds for any rigid body"
         )
     return value
 
 
 Inertia = Annotated[
-    tuple[Real, Real, Real, Real, Real, Real], AfterValidator(_physical_inertia)
+    tuple[Real, Real, Real, Real, Real, Real],
+    BeforeValidator(_sequence),
+    AfterValidator(_physical_inertia),
 ]
 
 
@@ -152,7 +237,13 @@ class Body:
         if self.com is None:
             object.__setattr__(self, "com", tuple(float(c) for c in 0.5 * self.length * e))
         if self.inertia is None:
-            rod = self.mass * self.length**2 / 12.0 * (np.eye(3) - np.outer(e, e))
+            with np.errstate(over="ignore", invalid="ignore"):
+                rod = self.mass * np.float64(self.length) ** 2 / 12.0 * (np.eye(3) - np.outer(e, e))
+            if not np.all(np.isfinite(rod)):
+                raise ValueError(
+                    f"the default inertia m L²/12 of a {self.mass:g} kg, {self.length:g} m body "
+                    "overflows; expected a smaller mass or length, or an explicit inertia"
+                )
             object.__setattr__(self, "inertia", _inertia_tuple(rod))
 
     @property
@@ -240,8 +331,8 @@ class Joint:
 
     name: Annotated[str, Strict(), Field(pattern=_NAME_PATTERN)]
     type: Annotated[JointType, BeforeValidator(_joint_type_alias)]
-    axis: Axis
-    limits: tuple[Real, Real] | None = None
+    axis: Annotated[Axis, BeforeValidator(_axis_alias)]
+    limits: Annotated[tuple[Real, Real], BeforeValidator(_sequence)] | None = None
     body: Body | None = None
     actuator: Actuator = TorqueActuator()
     friction: Friction = Friction()
@@ -282,7 +373,7 @@ class EndEffector:
 
     mass: NonNegative = 0.0
     offset: Vec3 = (0.0, 0.0, 0.0)
-    size: tuple[Positive, Positive, Positive] | None = None
+    size: Annotated[tuple[Positive, Positive, Positive], BeforeValidator(_sequence)] | None = None
 
     @property
     def box_size(self) -> np.ndarray:
@@ -306,7 +397,7 @@ class ManipulatorSpec:
 
     name: Annotated[str, Strict(), Field(min_length=1)]
     gravity: Vec3 = (0.0, 0.0, -9.81)
-    joints: Annotated[tuple[Joint, ...], Field(min_length=1)]
+    joints: Annotated[tuple[Joint, ...], Field(min_length=1), BeforeValidator(_sequence)]
     end_effector: EndEffector = EndEffector()
     source: str | None = dataclasses.field(default=None, compare=False, repr=False)
 

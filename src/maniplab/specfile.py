@@ -41,7 +41,7 @@ class _Loader(yaml.SafeLoader):
 _FLOAT = re.compile(
     r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
     |[-+]?(?:[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)
-    |\.[0-9_]+(?:[eE][-+]?[0-9]+)?
+    |[-+]?\.[0-9_]+(?:[eE][-+]?[0-9]+)?
     |[-+]?\.(?:inf|Inf|INF)
     |\.(?:nan|NaN|NAN))$""",
     re.X,
@@ -54,7 +54,13 @@ _Loader.add_implicit_resolver("tag:yaml.org,2002:float", _FLOAT, list("-+0123456
 
 
 class _Dumper(yaml.SafeDumper):
-    """Writes short lists of numbers in flow style ([1.0, 0.0, 0.0]) and keeps key order."""
+    """Writes short lists of numbers in flow style ([1.0, 0.0, 0.0]) and keeps key order.
+
+    It resolves plain scalars as _Loader does, so text that _Loader would read as a number
+    (e.g. a name '1e5') is quoted.
+    """
+
+    yaml_implicit_resolvers = _Loader.yaml_implicit_resolvers
 
     def represent_list(self, data: list[Any]) -> yaml.Node:  # noqa: D102
         flow = all(isinstance(v, (int, float)) for v in data)
@@ -77,6 +83,8 @@ def load_spec(path: str | os.PathLike[str]) -> _spec.ManipulatorSpec:
         SpecError: the file is missing or unreadable, is not valid YAML, or describes an invalid
             arm; the message names the file, line, joint and field.
     """
+    if not isinstance(path, (str, os.PathLike)):
+        raise SpecError(f"expected a file path, got {_describe(path)}")
     file = str(path)
     data, lines = _read_yaml(Path(path), file)
     if data is None:
@@ -87,9 +95,13 @@ def load_spec(path: str | os.PathLike[str]) -> _spec.ManipulatorSpec:
 
 
 def _read_yaml(path: Path, file: str) -> tuple[Any, dict[Loc, int]]:
-    if not path.exists():
+    try:
+        exists, is_dir = path.exists(), path.is_dir()
+    except (OSError, ValueError) as exc:  # e.g. a NUL byte or an over-long name
+        raise SpecError(f"not a usable file name ({exc})", file=file) from None
+    if not exists:
         raise SpecError("file not found; expected a YAML spec file or a built-in spec name", file=file)
-    if path.is_dir():
+    if is_dir:
         raise SpecError("is a directory; expected a YAML spec file", file=file)
     try:
         text = path.read_text(encoding="utf-8")
@@ -101,16 +113,28 @@ def _read_yaml(path: Path, file: str) -> tuple[Any, dict[Loc, int]]:
 def parse_yaml(text: str, file: str | None = None) -> tuple[Any, dict[Loc, int]]:
     """Parse YAML text into plain data and a map from data paths to 1-based line numbers."""
     try:
-        node = yaml.compose(text, Loader=_Loader)
-        data = yaml.load(text, Loader=_Loader)  # noqa: S506 - _Loader is a SafeLoader
+        loader = _Loader(text)
+        try:  # parse once: the node tree gives the line numbers, and constructs the data
+            node = loader.get_single_node()
+            data = loader.construct_document(node) if node is not None else None
+        finally:
+            loader.dispose()
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         problem = " ".join(str(p) for p in (exc.context, exc.problem) if p)
+        if exc.context_mark and mark and exc.context_mark.line != mark.line:
+            problem += f" (the construct started on line {exc.context_mark.line + 1})"
+        if "'\\t'" in problem:
+            problem += " (YAML does not allow tabs for indentation; expected spaces)"
+        elif "<block end>" in problem or "mapping values are not allowed" in problem:
+            problem += " (check this line's indentation, and that each ':' has a space after it)"
         raise SpecError(
             f"invalid YAML: {problem}", file=file, line=mark.line + 1 if mark else None
         ) from None
     except yaml.YAMLError as exc:
-        raise SpecError(f"invalid YAML: {exc}", file=file) from None
+        raise SpecError(f"invalid YAML: {' '.join(str(exc).split())}", file=file) from None
+    except RecursionError:
+        raise SpecError("invalid YAML: nested too deeply", file=file) from None
     lines: dict[Loc, int] = {}
     if node is not None:
         _record_lines(node, (), lines)
@@ -173,37 +197,56 @@ def spec_from_dict(
             f"expected a mapping with keys {', '.join(_TOP_KEYS)}, got {_describe(data)}",
             file=source,
         )
-    data = _with_default_names(data)
-    _check_duplicate_names(data, source, lines)
+    if "source" in data:
+        raise SpecError(
+            unknown_key_problem("source", _TOP_KEYS),
+            file=source,
+            field="source",
+            line=_line(lines, ("source",)),
+        )
+    named = _with_default_names(data)
+    _check_duplicate_names(named, data, source, lines)
+    data = named
     try:
         spec = _ADAPTER.validate_python({**data, "source": None})
     except ValidationError as exc:
-        raise _translate(exc.errors()[0], data, source, lines) from None
+        raise translate_errors(exc.errors(), data, source, lines) from None
     return _spec.dataclasses.replace(spec, source=source) if source else spec
 
 
-def _with_default_names(data: dict[str, Any]) -> dict[str, Any]:
+def _with_default_names(data: dict[Any, Any]) -> dict[Any, Any]:
     data = {"name": "manipulator", **data}
     joints = data.get("joints")
     if isinstance(joints, list):
         data["joints"] = [
             {"name": f"q{i + 1}", **j} if isinstance(j, dict) else j for i, j in enumerate(joints)
         ]
-    if "source" in data:
-        raise SpecError(unknown_key_problem("source", _TOP_KEYS), field="source")
     return data
 
 
-def _check_duplicate_names(data: dict[str, Any], source: str | None, lines: dict[Loc, int]) -> None:
+def _check_duplicate_names(
+    data: dict[Any, Any], original: dict[Any, Any], source: str | None, lines: dict[Loc, int]
+) -> None:
+    """Duplicate joint names (``data`` has default names filled in, ``original`` does not)."""
+    joints = data.get("joints")
+    if not isinstance(joints, list):
+        return
     seen: dict[str, int] = {}
-    for i, joint in enumerate(data.get("joints") or []):
+    for i, joint in enumerate(joints):
         name = joint.get("name") if isinstance(joint, dict) else None
         if not isinstance(name, str):
             continue
         if name in seen:
+            first = seen[name]
+            unnamed = [k + 1 for k in (first, i) if "name" not in original["joints"][k]]
+            hint = (
+                f"; joint {unnamed[0]} has no name and defaults to '{name}', so give it one"
+                if unnamed
+                else ""
+            )
             raise SpecError(
-                f"duplicate joint name '{name}' (joint {seen[name] + 1} has it too); "
-                "joint names must be unique",
+                f"duplicate joint name '{name}' (joint {first + 1} has it too){hint}; "
+                "expected unique joint names",
                 file=source,
                 joint=name,
                 field="name",
@@ -212,25 +255,60 @@ def _check_duplicate_names(data: dict[str, Any], source: str | None, lines: dict
         seen[name] = i
 
 
-def _translate(
-    error: dict[str, Any], data: dict[str, Any], source: str | None, lines: dict[Loc, int]
+def translate_errors(
+    errors: list[Any], data: Any, source: str | None, lines: dict[Loc, int]
 ) -> SpecError:
+    """One SpecError for pydantic's errors: the first one, but an unknown key before a missing one.
+
+    A misspelt key (``aera``) makes pydantic report both the missing ``area`` and the unknown
+    ``aera``; the unknown key with its did-you-mean is the more helpful of the two.
+    """
+    error = errors[0]
+    if error["type"] == "missing":
+        parent = tuple(error["loc"])[:-1]
+        for other in errors:
+            if other["type"] in _UNKNOWN_KEY and tuple(other["loc"])[:-1] == parent:
+                error = other
+                break
+    return _translate(error, data, source, lines)
+
+
+_UNKNOWN_KEY = ("extra_forbidden", "unexpected_keyword_argument")
+
+
+def _translate(error: Any, data: Any, source: str | None, lines: dict[Loc, int]) -> SpecError:
     raw_loc = tuple(error["loc"])
     loc = _strip_tags(raw_loc)
+    kind = error["type"]
+    siblings = _fields_at(raw_loc[:-1])
+    if loc and isinstance(loc[-1], int) and kind == "missing":  # too few vector elements
+        loc = loc[:-1]
+    if kind == "invalid_key":  # a key that is not text: report it at its mapping
+        loc = loc[:-1]
+    if kind in ("union_tag_invalid", "union_tag_not_found"):  # the actuator's type is at fault
+        loc = (*loc, "type")
     joint = None
     field_loc = loc
     if len(loc) >= 2 and loc[0] == "joints" and isinstance(loc[1], int):
-        raw = data["joints"][loc[1]]
-        name = raw.get("name") if isinstance(raw, dict) else None
-        joint = name if isinstance(name, str) else f"#{loc[1] + 1}"
+        joint = _joint_label(data, loc[1])
         field_loc = loc[2:]
     return SpecError(
-        _problem(error, loc, _fields_at(raw_loc[:-1])),
+        _problem(error, loc, siblings),
         file=source,
         joint=joint,
         field=_dotted(field_loc) or None,
         line=_line(lines, loc),
     )
+
+
+def _joint_label(data: Any, index: int) -> str:
+    """The joint's name as written, or '#k' (1-based) when it has none."""
+    try:
+        raw = data["joints"][index]
+    except (KeyError, IndexError, TypeError):
+        raw = None
+    name = raw.get("name") if isinstance(raw, dict) else None
+    return name if isinstance(name, str) and name else f"#{index + 1}"
 
 
 def _strip_tags(loc: Loc) -> Loc:
@@ -257,52 +335,128 @@ def _line(lines: dict[Loc, int], loc: Loc) -> int | None:
     return None
 
 
+_KINDS = {
+    str: "text", bool: "a boolean", int: "an integer", float: "a number",
+    type(None): "an empty value", list: "a list", tuple: "a list", dict: "a mapping",
+}  # fmt: skip
+
+
 def _describe(value: Any) -> str:
-    text = repr(value)
+    """A value as a YAML user would recognise it: ``'10 kg' (text)``, ``true (a boolean)``."""
+    if value is None:
+        return "nothing (an empty value)"
+    if isinstance(value, bool):
+        text = "true" if value else "false"
+    else:
+        try:
+            text = repr(value)
+        except Exception:  # noqa: BLE001 - a broken __repr__ must not hide the real problem
+            text = "?"
     text = text if len(text) <= 40 else text[:37] + "..."
-    return f"{text} ({type(value).__name__})"
+    return f"{text} ({_KINDS.get(type(value), type(value).__name__)})"
 
 
-def _problem(error: dict[str, Any], loc: Loc, siblings: list[str]) -> str:  # noqa: C901
+_VECTOR_LENGTHS = {"limits": 2, "inertia": 6}  # every other vector has 3 elements
+_ENUM_CHOICES = {
+    "axis": [a.value for a in _spec.Axis],
+    "type": [t.value for t in _spec.JointType],
+    "model": [m.value for m in _spec.FrictionModel],
+}
+
+
+def _choices(values: typing.Sequence[str]) -> str:
+    quoted = [f"'{v}'" for v in values]
+    return ", ".join(quoted[:-1]) + f" or {quoted[-1]}" if len(quoted) > 1 else quoted[0]
+
+
+def _did_you_mean(value: Any, valid: typing.Sequence[str]) -> str:
+    if not isinstance(value, str):
+        return ""
+    lowered = {v.lower(): v for v in valid}
+    close = difflib.get_close_matches(value.lower(), list(lowered), n=1, cutoff=0.5)
+    return f"; did you mean '{lowered[close[0]]}'?" if close else ""
+
+
+def _problem(error: Any, loc: Loc, siblings: list[str]) -> str:  # noqa: C901, PLR0911, PLR0912
     """The problem in words, for one pydantic error at ``loc`` (``siblings``: the valid keys)."""
     kind, value, ctx = error["type"], error.get("input"), error.get("ctx") or {}
     leaf = loc[-1] if loc else ""
-    if kind in ("extra_forbidden", "unexpected_keyword_argument"):
+    if kind in _UNKNOWN_KEY:
         return unknown_key_problem(str(leaf), siblings)
-    if kind == "missing" and isinstance(leaf, int):
-        return f"expected a list of {leaf + 1} or more numbers, got too few"
+    if kind == "invalid_key":
+        return f"unknown key {_describe(value)}; expected one of {', '.join(siblings)}"
+    if kind == "missing" and error["loc"] and isinstance(error["loc"][-1], int):
+        n = _VECTOR_LENGTHS.get(str(leaf), 3)
+        return f"expected a list of {n} numbers, got {_describe(value)}"
     if kind == "missing":
         return f"missing required key '{leaf}'"
     if kind in ("too_short", "too_long"):
         if loc == ("joints",):
-            return "the joint list is empty; a manipulator needs at least one joint"
-        return f"expected a list of {ctx.get('min_length', '?')} values, got {_describe(value)}"
+            return "the joint list is empty; expected at least one joint"
+        n = ctx.get("max_length", ctx.get("min_length", _VECTOR_LENGTHS.get(str(leaf), 3)))
+        return f"expected a list of {n} numbers, got {_describe(value)}"
     if kind in ("float_type", "float_parsing", "int_type"):
-        return f"expected a number, got {_describe(value)}"
+        hint = ""
+        if isinstance(value, str) and re.fullmatch(r"\s*[-+]?[0-9]+,[0-9]+\s*", value):
+            hint = f"; write a decimal point: {value.strip().replace(',', '.')}"
+        elif isinstance(value, str) and re.match(r"\s*[-+]?\.?[0-9]", value):
+            hint = "; write a plain number in SI units (m, kg, rad, N, Pa, m³/s)"
+        return f"expected a number, got {_describe(value)}{hint}"
     if kind == "finite_number":
-        return f"expected a finite number, got {value!r}"
+        return f"expected a finite number, got {_describe(value)}"
     if kind in ("greater_than_equal", "greater_than"):
         bound = ctx.get("ge", ctx.get("gt"))
         sign = ">=" if kind == "greater_than_equal" else ">"
-        return f"must be {sign} {bound:g}, got {value!r}"
+        return f"expected a number {sign} {bound:g}, got {_describe(value)}"
     if kind == "enum":
-        extra = " (Tr is accepted for P)" if leaf == "type" else ""
-        return f"unknown {leaf} {value!r}; expected {ctx.get('expected')}{extra}"
+        choices = _ENUM_CHOICES.get(str(leaf), [])
+        extra = " (the paper's Tr is accepted for P)" if leaf == "type" else ""
+        expected = _choices(choices) if choices else ctx.get("expected")
+        shown = repr(value) if isinstance(value, str) else _describe(value)
+        return (
+            f"unknown {_ENUM_LABELS.get(str(leaf), leaf)} {shown}; expected {expected}{extra}"
+            f"{_did_you_mean(value, choices)}"
+        )
     if kind == "union_tag_invalid":
-        return f"unknown actuator type '{ctx.get('tag')}'; expected {ctx.get('expected_tags')}"
+        tag = ctx.get("tag")
+        return (
+            f"unknown actuator type {tag!r}; expected {_choices(_spec.ACTUATOR_TYPES)}"
+            f"{_did_you_mean(tag, _spec.ACTUATOR_TYPES)}"
+        )
     if kind == "union_tag_not_found":
-        return f"missing key 'type'; expected one of {', '.join(_spec.ACTUATOR_TYPES)}"
+        types = " or ".join(f"'type: {t}'" for t in _spec.ACTUATOR_TYPES)
+        return f"missing key 'type'; expected {types}"
     if kind == "string_type":
-        return f"expected a string, got {_describe(value)}"
+        return f"expected text, got {_describe(value)}"
+    if kind == "string_too_short":
+        return "expected a non-empty name, got ''"
     if kind == "string_pattern_mismatch":
-        return f"{value!r} is not a valid name; use letters, digits, '_' and '-', starting with a letter"
+        return (
+            f"{value!r} is not a valid name; expected letters, digits, '_' and '-', "
+            "starting with a letter or '_'"
+        )
     if kind in ("tuple_type", "list_type"):
-        return f"expected a list, got {_describe(value)}"
+        if loc == ("joints",):
+            return f"expected a list of joints (each '- name: ...'), got {_describe(value)}"
+        n = _VECTOR_LENGTHS.get(str(leaf), 3)
+        return f"expected a list of {n} numbers, got {_describe(value)}"
     if kind in ("dataclass_type", "model_attributes_type", "dict_type", "dataclass_exact_type"):
-        return f"expected a mapping (key: value), got {_describe(value)}"
+        section = "joint" if len(loc) == 2 and loc[0] == "joints" else str(leaf)
+        example = _SECTION_EXAMPLES.get(section, "key: value")
+        return f"expected a mapping such as {{{example}}}, got {_describe(value)}"
     if kind == "value_error":
         return str(error["msg"]).removeprefix("Value error, ")
     return f"{error['msg']}, got {_describe(value)}"
+
+
+_ENUM_LABELS = {"type": "joint type", "model": "friction model"}
+_SECTION_EXAMPLES = {
+    "joint": "name: q1, type: R, axis: z",
+    "actuator": "type: torque",
+    "friction": "model: hybrid, coulomb: 100.0",
+    "body": "length: 1.0, mass: 10.0",
+    "end_effector": "mass: 500.0",
+}
 
 
 def unknown_key_problem(key: str, valid: typing.Sequence[str]) -> str:
