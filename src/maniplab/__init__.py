@@ -16,6 +16,7 @@ from importlib.metadata import PackageNotFoundError, version
 from maniplab.builtin import builtin_spec, builtin_specs, resolve_spec
 from maniplab.errors import ManiplabError, ModelError, SpecError
 from maniplab.mjcf_gen import build_model, to_mjcf
+from maniplab.model import AnalyticModel
 from maniplab.spec import (
     Axis,
     Body,
@@ -36,6 +37,7 @@ except PackageNotFoundError:  # running from a source tree without installation
     __version__ = "0+unknown"
 
 __all__ = [
+    "AnalyticModel",
     "Axis",
     "Body",
     "EndEffector",

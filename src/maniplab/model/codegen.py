@@ -97,7 +97,20 @@ def model_kernels(ch: Chain, dyn: Dynamics, qdd: list, engine: Engine) -> list[K
 def eliminate(kernel: Kernel, engine: Engine) -> CseKernel:
     """Common-subexpression elimination of one kernel (the engine's own cse)."""
     temps, outputs = engine.module.cse(list(kernel.exprs))
-    return CseKernel(kernel, tuple((a, b) for a, b in temps), tuple(outputs))
+    return CseKernel(kernel, _live(list(temps), outputs), tuple(outputs))
+
+
+def _live(temps: list[tuple[Expr, Expr]], outputs: Sequence[Expr]) -> tuple[tuple[Expr, Expr], ...]:
+    """The temporaries the outputs need (symengine's cse can leave dead ones behind)."""
+    needed: set[Any] = set()
+    for e in outputs:
+        needed |= e.free_symbols
+    kept = []
+    for sym, e in reversed(temps):
+        if sym in needed:
+            needed |= e.free_symbols
+            kept.append((sym, e))
+    return tuple(reversed(kept))
 
 
 # --- printing ------------------------------------------------------------------------------------

@@ -1,0 +1,262 @@
+"""Export of the analytic model (the paper's "analytical model representation").
+
+- ``latex`` / ``markdown``: M, C, G and Fv for reading, parameters as symbols. A small arm's
+  entries are simplified (expand + trigsimp, affordable below :data:`SIMPLIFY_LIMIT` operations);
+  a larger arm is written in common-subexpression form (x_k = ..., then the entries in x_k), since
+  ``simplify()`` does not finish for 6 DOF.
+- ``python``: a self-contained module (math and numpy only) with M, C, G, bias,
+  inverse_dynamics, fk, jacobian and FV, the spec's values built in.
+- ``c``: a self-contained C file (math.h only) with the same functions.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterable
+from typing import Any
+
+import sympy
+
+from maniplab.model.build import Generated, generate, symbols
+from maniplab.model.codegen import c_function, c_printer, python_function, python_printer
+from maniplab.model.dynamics import derive
+from maniplab.model.engine import get_engine
+from maniplab.model.parameters import GROUPS, arm_terms
+from maniplab.spec import ManipulatorSpec
+
+FORMATS = ("latex", "markdown", "python", "c")
+SUFFIXES = {".tex": "latex", ".md": "markdown", ".py": "python", ".c": "c"}
+DEFAULT_SYMBOLIC = ("mass", "length", "payload")
+SIMPLIFY_LIMIT = 600  # total operations of M, C, G up to which entries are simplified
+
+
+def export_model(spec: ManipulatorSpec, fmt: str, symbolic: Iterable[str] | None = None) -> str:
+    """The analytic model of ``spec`` as text in ``fmt`` (one of :data:`FORMATS`).
+
+    Args:
+        symbolic: parameter groups kept as symbols in latex/markdown (default mass, length,
+            payload); python and c always use the spec's numbers.
+
+    Raises:
+        ValueError: unknown format or parameter group.
+    """
+    if fmt not in FORMATS:
+        raise ValueError(f"unknown format {fmt!r}; expected one of {', '.join(FORMATS)}")
+    if fmt == "python":
+        return python_module(spec)
+    if fmt == "c":
+        return c_file(spec)
+    doc = readable(spec, DEFAULT_SYMBOLIC if symbolic is None else tuple(symbolic))
+    return _latex_document(spec, doc) if fmt == "latex" else _markdown_document(spec, doc)
+
+
+# --- readable forms ------------------------------------------------------------------------------
+
+class Readable:
+    """M, C, G, Fv entries (and cse temporaries) as sympy expressions, with LaTeX names."""
+
+    def __init__(self) -> None:
+        self.temps: list[tuple[Any, Any]] = []
+        self.entries: dict[str, list[tuple[str, Any]]] = {"M": [], "C": [], "G": [], "Fv": []}
+        self.names: dict[Any, str] = {}
+        self.parameters: list[tuple[str, float, str]] = []  # latex name, value, meaning
+        self.simplified = False
+
+    def latex(self, expr: Any) -> str:
+        return sympy.latex(expr, symbol_names=self.names)
+
+
+def readable(spec: ManipulatorSpec, symbolic: tuple[str, ...]) -> Readable:
+    """The readable form: simplified entries for a small arm, cse form for a larger one."""
+    engine = get_engine("auto")
+    terms = arm_terms(spec, engine, symbolic=symbolic)
+    n = spec.n
+    q = [engine.symbol(f"q{i + 1}") for i in range(n)]
+    qd = [engine.symbol(f"qd{i + 1}") for i in range(n)]
+    _, dyn = derive(spec, terms, q, qd, engine)
+    keys = ([("M", f"M_{{{i + 1}{j + 1}}}", dyn.M[i][j]) for i in range(n) for j in range(i, n)]
+            + [("C", f"C_{{{i + 1}{j + 1}}}", dyn.C[i][j]) for i in range(n) for j in range(n)]
+            + [("G", f"G_{{{i + 1}}}", dyn.G[i]) for i in range(n)])
+    exprs = [sympy.sympify(e) for _, _, e in keys]
+    doc = Readable()
+    if sum(sympy.count_ops(e) for e in exprs) <= SIMPLIFY_LIMIT:
+        exprs = [sympy.factor_terms(sympy.trigsimp(sympy.expand(e))) for e in exprs]
+        doc.simplified = True
+    else:
+        temps, reduced = sympy.cse(exprs, symbols=sympy.numbered_symbols("x"), optimizations=None)
+        doc.temps, exprs = temps, reduced
+    for (group, label, _), e in zip(keys, exprs):
+        doc.entries[group].append((label, e))
+    doc.entries["Fv"] = [(f"F_{{v,{i + 1}}}", sympy.sympify(terms.viscous[i])) for i in range(n)]
+    doc.names = _names(n, terms.symbols)
+    doc.parameters = [(doc.names[sympy.Symbol(str(s))], v, _meaning(str(s), spec))
+                      for s, v in terms.symbols.items()]
+    return doc
+
+
+def _names(n: int, params: dict[Any, float]) -> dict[Any, str]:
+    from maniplab.model.symbolic import _parameter_latex
+
+    names: dict[Any, str] = {}
+    for i in range(n):
+        names[sympy.Symbol(f"q{i + 1}")] = f"q_{{{i + 1}}}"
+        names[sympy.Symbol(f"qd{i + 1}")] = f"\\dot{{q}}_{{{i + 1}}}"
+    for s in params:
+        names[sympy.Symbol(str(s))] = _parameter_latex(str(s))
+    for k in range(100000):  # cse temporaries x0.. -> x_{0}
+        names[sympy.Symbol(f"x{k}")] = f"x_{{{k}}}"
+        if k > 20000:
+            break
+    return names
+
+
+def _meaning(name: str, spec: ManipulatorSpec) -> str:
+    joint = lambda k: spec.joints[int(k) - 1].name  # noqa: E731
+    if m := re.fullmatch(r"m(\d+)", name):
+        return f"mass of body {joint(m.group(1))}, kg"
+    if m := re.fullmatch(r"l(\d+)", name):
+        return f"length of body {joint(m.group(1))}, m"
+    if m := re.fullmatch(r"c(\d+)([xyz])", name):
+        return f"COG {m.group(2)} of body {joint(m.group(1))}, m"
+    if m := re.fullmatch(r"I(\d+)(\w\w)", name):
+        return f"inertia {m.group(2)} of body {joint(m.group(1))}, kg·m²"
+    if m := re.fullmatch(r"fv(\d+)", name):
+        return f"viscous friction of joint {joint(m.group(1))}"
+    return {"me": "payload mass, kg", "gx": "gravity x, m/s²", "gy": "gravity y, m/s²",
+            "gz": "gravity z, m/s²", "ex": "end-effector offset x, m",
+            "ey": "end-effector offset y, m", "ez": "end-effector offset z, m"}.get(name, name)
+
+
+def _intro(spec: ManipulatorSpec, doc: Readable) -> list[str]:
+    from maniplab import __version__
+
+    form = ("entries simplified" if doc.simplified else
+            f"common-subexpression form: {len(doc.temps)} temporaries x_k, then the entries")
+    return [f"Analytic model of '{spec.name}' ({spec.n} joints: "
+            f"{', '.join(f'{j.name} {j.type.value}{j.axis.value}' for j in spec.joints)}), "
+            f"generated by maniplab {__version__}.",
+            "Equations of motion: M(q) q̈ + C(q, q̇) q̇ + G(q) + Fv q̇ = τ; C in Christoffel form; "
+            f"M symmetric (upper triangle shown); {form}."]
+
+
+def _latex_document(spec: ManipulatorSpec, doc: Readable) -> str:
+    def esc(text: str) -> str:
+        return (text.replace("q̈", r"$\ddot q$").replace("q̇", r"$\dot q$").replace("τ", r"$\tau$")
+                .replace("_", r"\_").replace("²", "$^2$").replace("·", r"$\cdot$"))
+
+    lines = [r"\documentclass[10pt]{article}", r"\usepackage[margin=1.5cm,landscape]{geometry}",
+             r"\usepackage{amsmath}", r"\allowdisplaybreaks", r"\begin{document}",
+             r"\section*{" + esc(f"Analytic model: {spec.name}") + "}"]
+    lines += [esc(p) + "\n" for p in _intro(spec, doc)]
+    if doc.parameters:
+        lines += [r"\subsection*{Parameters}", r"\begin{tabular}{lll}", r"symbol & value & meaning \\ \hline"]
+        lines += [f"${name}$ & {value!r} & {esc(meaning)} \\\\" for name, value, meaning in doc.parameters]
+        lines.append(r"\end{tabular}")
+    sections = ([("Common subexpressions", [(doc.latex(t), e) for t, e in doc.temps])] if doc.temps else [])
+    sections += [(title, doc.entries[key]) for key, title in
+                 (("M", "Inertia matrix M(q)"), ("C", "Coriolis matrix C(q, q̇)"),
+                  ("G", "Gravity G(q)"), ("Fv", "Viscous friction Fv (diagonal)"))]
+    for title, rows in sections:
+        lines += [r"\subsection*{" + esc(title) + "}", r"\begin{align*}"]
+        lines += [f"{label} &= {doc.latex(e)} \\\\" for label, e in rows]
+        lines.append(r"\end{align*}")
+    lines.append(r"\end{document}")
+    return "\n".join(lines) + "\n"
+
+
+def _markdown_document(spec: ManipulatorSpec, doc: Readable) -> str:
+    lines = [f"# Analytic model: {spec.name}", ""] + [p + "\n" for p in _intro(spec, doc)]
+    if doc.parameters:
+        lines += ["## Parameters", "", "| symbol | value | meaning |", "|---|---|---|"]
+        lines += [f"| ${name}$ | {value!r} | {meaning} |" for name, value, meaning in doc.parameters]
+        lines.append("")
+    sections = ([("Common subexpressions", [(doc.latex(t), e) for t, e in doc.temps])] if doc.temps else [])
+    sections += [(title, doc.entries[key]) for key, title in
+                 (("M", "Inertia matrix M(q)"), ("C", "Coriolis matrix C(q, q̇)"),
+                  ("G", "Gravity G(q)"), ("Fv", "Viscous friction Fv (diagonal)"))]
+    for title, rows in sections:
+        lines += [f"## {title}", ""]
+        lines += [f"$$ {label} = {doc.latex(e)} $$\n" for label, e in rows]
+    return "\n".join(lines)
+
+
+# --- code: Python module and C file --------------------------------------------------------------
+
+def _identifier(name: str) -> str:
+    ident = re.sub(r"\W", "_", name)
+    return ident if ident and not ident[0].isdigit() else f"arm_{ident}"
+
+
+_PUBLIC = (  # kernel, Python/C signature arguments, output shape description
+    ("M", ("q",)), ("C", ("q", "qd")), ("G", ("q",)), ("bias", ("q", "qd")),
+    ("inverse_dynamics", ("q", "qd", "qdd")), ("fk", ("q",)), ("jacobian", ("q",)))
+
+
+def python_module(spec: ManipulatorSpec) -> str:
+    """A self-contained Python module (math, numpy) evaluating the arm's model."""
+    from maniplab import __version__
+
+    gen = generate(spec)
+    printer = python_printer(gen.engine)
+    kernels = {ck.kernel.name: ck for ck in gen.kernels}
+    n = spec.n
+    params = "\n".join(f"    {v!r},  # p{k}: {label}" for k, (v, label) in
+                       enumerate(zip(gen.terms.slot_values, gen.terms.slot_labels)))
+    out = [f'"""Analytic model of the arm \'{spec.name}\', generated by maniplab {__version__}.',
+           "",
+           "Self-contained (math and numpy only): copy this file into any project.",
+           f"Joints (q order): {', '.join(spec.joint_names)}. Units: SI; q in rad or m.",
+           "Each function takes arrays of N floats and returns numpy arrays:",
+           "M(q) (N, N); C(q, qd) (N, N), Christoffel form; G(q) (N,); bias(q, qd) = C qd + G;",
+           "inverse_dynamics(q, qd, qdd) = M qdd + C qd + G (add FV * qd for viscous friction);",
+           "fk(q) 4x4 end-effector pose; jacobian(q) (6, N) [linear; angular], base frame.",
+           '"""', "", "from math import cos, sin, sqrt  # noqa: F401", "", "import numpy as np", "",
+           f"N = {n}", f"JOINTS = {spec.joint_names!r}",
+           f"FV = np.array({[j.friction.viscous for j in spec.joints]!r})  # viscous friction",
+           f"P = (\n{params}\n)" if params else "P = (0.0,)", ""]
+    for name, args in _PUBLIC:
+        ck = kernels[name]
+        kernel_src = python_function(ck, printer).replace(f"def {name}(", f"def _{name}(", 1)
+        shape = ck.kernel.shape
+        call = ", ".join([f"list({a})" for a in args] + ["None"] * (3 - len(args)))
+        out += ["", kernel_src, "", "",
+                f"def {name}({', '.join(args)}):",
+                f"    \"\"\"{ck.kernel.doc}, shape {shape}.\"\"\"",
+                f"    return np.array(_{name}(P, {call})).reshape{shape}", ""]
+    return "\n".join(out)
+
+
+def c_file(spec: ManipulatorSpec) -> str:
+    """A self-contained C file (math.h only) evaluating the arm's model."""
+    from maniplab import __version__
+
+    gen: Generated = generate(spec)
+    printer = c_printer(gen.engine)
+    kernels = {ck.kernel.name: ck for ck in gen.kernels}
+    prefix = _identifier(spec.name)
+    n, values = spec.n, gen.terms.slot_values or [0.0]
+    docs = "\n".join(f" *   void {prefix}_{name}({', '.join(f'const double *{a}' for a in args)}, "
+                     f"double *out);  out: {kernels[name].kernel.shape}"
+                     for name, args in _PUBLIC)
+    params = "\n".join(f"    {v!r},  /* p{k}: {label} */" for k, (v, label) in
+                       enumerate(zip(values, gen.terms.slot_labels or ["unused"])))
+    out = [f"/* Analytic model of the arm '{spec.name}', generated by maniplab {__version__}.",
+           " *", " * Self-contained (math.h only): compile with your project (cc -O2 ... -lm).",
+           f" * Joints (q order): {', '.join(spec.joint_names)}. Units: SI; q in rad or m.",
+           " * Arrays of doubles; outputs row-major (C order):", docs,
+           " * M: inertia matrix; C: Christoffel matrix; G: gravity; bias: C qd + G;",
+           " * inverse_dynamics: M qdd + C qd + G (add fv[i] * qd[i] for viscous friction);",
+           " * fk: 4x4 end-effector pose; jacobian: 6 x N, rows [linear; angular], base frame.", " */",
+           "#include <math.h>", "", f"#define {prefix.upper()}_N {n}", "",
+           f"const double {prefix}_fv[{n}] = {{{', '.join(repr(j.friction.viscous) for j in spec.joints)}}};",
+           f"static const double P[{len(values)}] = {{\n{params}\n}};", ""]
+    for name, args in _PUBLIC:
+        ck = kernels[name]
+        out += ["static " + c_function(ck, printer, prefix="k_"), ""]
+        full = list(args) + ["0"] * (3 - len(args))
+        out += [f"void {prefix}_{name}({', '.join(f'const double *{a}' for a in args)}, double *out)",
+                f"{{\n    k_{name}(P, {', '.join(full)}, out);\n}}", ""]
+    return "\n".join(out)
+
+
+__all__ = ["DEFAULT_SYMBOLIC", "FORMATS", "GROUPS", "SUFFIXES", "export_model", "symbols"]
