@@ -9,7 +9,7 @@ Defaults of the optional fields (documented here and in the README):
 =========================  ===================================================================
 field                      default
 =========================  ===================================================================
-name                       the file's stem, or "manipulator"
+name                       the file's stem, or "manipulator" (any one line of printable text)
 gravity                    [0, 0, -9.81] m/s²
 joints[].name              q1 .. qn
 joints[].type              (required) R or P; also accepted, in any case: Tr, revolute,
@@ -400,6 +400,15 @@ class ManipulatorSpec:
     joints: Annotated[tuple[Joint, ...], Field(min_length=1), BeforeValidator(_sequence)]
     end_effector: EndEffector = EndEffector()
     source: str | None = dataclasses.field(default=None, compare=False, repr=False)
+
+    @field_validator("name")
+    @classmethod
+    def _printable(cls, name: str) -> str:
+        if not name.isprintable():
+            raise ValueError(
+                f"name {name!r} has a line break or control character; expected one line of text"
+            )
+        return name
 
     @field_validator("joints")
     @classmethod
