@@ -61,6 +61,22 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("-o", "--output", type=Path, default=Path("out/demo"), metavar="DIR",
                       help="folder for the results (default: out/demo)")
     demo.set_defaults(func=_cmd_demo)
+
+    model = sub.add_parser(
+        "model", help="write the arm's analytic model (LaTeX, Markdown, Python or C)",
+        description="Write the analytic model M, C, G, Fv: readable (latex, markdown: parameters as "
+                    "symbols, cse form for large arms) or as code to drop into another project "
+                    "(python: math and numpy only; c: math.h only).")
+    _spec_argument(model)
+    model.add_argument("-f", "--format", choices=("latex", "markdown", "python", "c"),
+                       help="output format (default: from the file's suffix .tex, .md, .py, .c)")
+    model.add_argument("-o", "--output", required=True, type=Path, metavar="FILE",
+                       help="the file to write")
+    model.add_argument("--symbolic", default="mass,length,payload", metavar="GROUPS",
+                       help="parameter groups kept as symbols in latex/markdown, comma-separated, "
+                            "from mass, length, com, inertia, payload, offset, gravity, friction; "
+                            "'' for none (default: mass,length,payload)")
+    model.set_defaults(func=_cmd_model)
     return parser
 
 
@@ -103,6 +119,30 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     ml.mjcf_gen.write_mjcf(spec, path)
     print(spec_table(spec))
     print(f"\nMJCF model: {path}  (open it with: python -m mujoco.viewer --mjcf={path})")
+    return 0
+
+
+def _cmd_model(args: argparse.Namespace) -> int:
+    import maniplab as ml
+    from maniplab.model.export import SUFFIXES, export_model
+    from maniplab.model.parameters import GROUPS
+
+    fmt = args.format or SUFFIXES.get(args.output.suffix.lower())
+    if fmt is None:
+        raise ml.ManiplabError(f"cannot tell the format from '{args.output.name}'; give --format "
+                               "(latex, markdown, python or c) or a .tex, .md, .py or .c file")
+    symbolic = [g.strip() for g in args.symbolic.split(",") if g.strip()]
+    unknown = [g for g in symbolic if g not in GROUPS]
+    if unknown:
+        raise ml.ManiplabError(f"unknown parameter group '{unknown[0]}' in --symbolic; expected "
+                               f"some of {', '.join(GROUPS)}")
+    spec = ml.resolve_spec(args.spec)
+    text = export_model(spec, fmt, symbolic)
+    args.output.parent.mkdir(parents=True, exist_ok=True)
+    tmp = args.output.with_name(f".{args.output.name}.tmp-{os.getpid()}")
+    tmp.write_text(text)
+    os.replace(tmp, args.output)
+    print(f"wrote {args.output} ({spec.name}, {spec.n} joints, {fmt})")
     return 0
 
 
