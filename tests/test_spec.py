@@ -289,6 +289,8 @@ def test_not_a_mapping():
         (lambda: ml.Friction(model="stiction"), "model", ["unknown friction model"]),
         (lambda: ml.EndEffector(mass=True), "mass", ["expected a number"]),
         (lambda: ml.TorqueActuator(limit=0.0), "limit", ["> 0"]),
+        (lambda: ml.TorqueActuator(type="electric"), "type", ["expected 'torque'", "'electric'"]),
+        (lambda: ml.ManipulatorSpec(name="a", joints=[]), "joints", ["at least one joint"]),
     ],
 )  # fmt: skip
 def test_direct_construction_raises_spec_error(make, field, words):

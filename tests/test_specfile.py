@@ -17,7 +17,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import maniplab as ml
-from maniplab.specfile import load_spec, parse_yaml
+from maniplab.specfile import _problem, load_spec, parse_yaml
 
 ARM = """\
 name: arm
@@ -314,6 +314,13 @@ def test_default_name_clash_says_which_joint_has_no_name(tmp_path):
                                        "  - {type: R, axis: z}\n"))  # fmt: skip
     assert (error.joint, error.field) == ("q2", "name")
     assert_words(error.problem, ["duplicate joint name 'q2'", "joint 2 has no name"])
+
+
+def test_an_unforeseen_pydantic_error_still_gives_one_line():
+    # _problem's last branch, for error kinds no spec input produces today
+    error = {"type": "new_kind", "msg": "Input is odd", "input": "a\nb", "loc": ("x",)}
+    problem = _problem(error, ("x",), [])
+    assert problem == "Input is odd, got 'a\\nb' (text)"
 
 
 # --- what is not YAML, or not a file ------------------------------------------------------------

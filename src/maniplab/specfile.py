@@ -444,6 +444,8 @@ def _problem(error: Any, loc: Loc, siblings: list[str]) -> str:  # noqa: C901, P
         section = "joint" if len(loc) == 2 and loc[0] == "joints" else str(leaf)
         example = _SECTION_EXAMPLES.get(section, "key: value")
         return f"expected a mapping such as {{{example}}}, got {_describe(value)}"
+    if kind == "literal_error":
+        return f"expected {ctx.get('expected')}, got {_describe(value)}"
     if kind == "value_error":
         return str(error["msg"]).removeprefix("Value error, ")
     return f"{error['msg']}, got {_describe(value)}"
