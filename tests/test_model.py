@@ -186,14 +186,29 @@ def test_backends_agree(name: str) -> None:
     c, py = AnalyticModel(spec, backend="c"), AnalyticModel(spec, backend="python")
     rng = np.random.default_rng(3)
     q, qd, qdd = rng.normal(size=(3, 5, spec.n))
-    for fn, args in [("M", (q,)), ("C", (q, qd)), ("G", (q,)), ("inverse_dynamics", (q, qd, qdd)),
-                     ("fk", (q,)), ("jacobian", (q,))]:
+    for fn, args in [("M", (q,)), ("C", (q, qd)), ("G", (q,)), ("bias", (q, qd)),
+                     ("inverse_dynamics", (q, qd, qdd)), ("fk", (q,)), ("jacobian", (q,))]:
         for i in range(5):
             np.testing.assert_allclose(getattr(c, fn)(*(a[i] for a in args)),
                                        getattr(py, fn)(*(a[i] for a in args)), rtol=1e-13,
                                        atol=1e-13, err_msg=fn)
         np.testing.assert_allclose(getattr(c, fn)(*args), getattr(py, fn)(*args), rtol=1e-12,
                                    atol=1e-12, err_msg=f"{fn} batch")
+    for a, b in zip(c.mass_and_bias(q, qd), py.mass_and_bias(q, qd)):
+        np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12)
+
+
+@pytest.mark.parametrize("backend", ["c", "python"])
+def test_inputs_lists_and_bad_shapes(backend: str) -> None:
+    am = AnalyticModel(ml.builtin_spec("planar2"), backend=backend)
+    np.testing.assert_array_equal(am.M([0.1, 0.2]), am.M(np.array([0.1, 0.2])))
+    np.testing.assert_array_equal(am.G(np.array([0.1, 0.2], dtype=np.float32)),
+                                  am.G(np.array([0.1, 0.2], dtype=np.float32).astype(float)))
+    with pytest.raises(ValueError):
+        am.M(np.zeros(3))
+    with pytest.raises(ValueError):
+        am.bias(np.zeros((4, 2)), np.zeros((3, 2)))
+    assert am.M(np.zeros((0, 2))).shape == (0, 2, 2)
 
 
 def test_planar2_closed_form() -> None:
@@ -389,8 +404,17 @@ def test_random_arms_match_mujoco(spec: ml.ManipulatorSpec, seed: int) -> None:
     am = AnalyticModel(spec, backend="python")
     check_against_mujoco(am, ref, random_states(spec.n, 3, seed))
     q, qd, _ = random_states(spec.n, 1, seed + 1)[0]
+    M = am.M(q)
     N = _mdot(am, q, qd) - 2 * am.C(q, qd)
-    assert np.linalg.norm(N + N.T) <= 1e-6 * (np.linalg.norm(am.M(q)) * np.linalg.norm(qd) + 1e-9)
+    assert np.linalg.norm(N + N.T) <= 1e-6 * (np.linalg.norm(M) * np.linalg.norm(qd) + 1e-9)
+    np.testing.assert_array_equal(M, M.T)
+    assert np.linalg.eigvalsh(M)[0] > 0.0
+    stuck = [i for i in range(spec.n) if (seed >> i) & 1]
+    tau = np.random.default_rng(seed).normal(scale=10.0, size=spec.n)
+    qdd, hold = am.constrained_dynamics(q, qd, tau, stuck)
+    qdd_ref, hold_ref = _kkt_reference(ref, q, qd, tau, stuck)
+    assert_close(qdd, qdd_ref, "constrained qdd")
+    assert_close(hold, hold_ref, "hold")
 
 
 @settings(max_examples=4, deadline=None, suppress_health_check=[HealthCheck.too_slow,

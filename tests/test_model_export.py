@@ -23,7 +23,7 @@ import maniplab as ml
 from maniplab.cli import main
 from maniplab.model import SymbolicModel
 from maniplab.model.export import export_model, readable
-from test_model import MjRef, assert_close, random_states
+from test_model import MjRef, _model_cache, assert_close, random_states  # noqa: F401 (fixture)
 
 CC = shutil.which("cc") or shutil.which("gcc")
 

@@ -147,13 +147,16 @@ class AnalyticModel:
         return qdd, hold
 
     def _stuck_mask(self, stuck: Any) -> np.ndarray:
+        """Boolean mask (n,) from joint names, indices, or a mask."""
+        if isinstance(stuck, (str, int, np.integer)):
+            stuck = [stuck]
         arr = np.asarray(stuck)
         if arr.dtype == bool:
             if arr.shape != (self.n,):
                 raise ValueError(f"stuck mask must have shape ({self.n},), got {arr.shape}")
             return arr.copy()
         mask = np.zeros(self.n, dtype=bool)
-        for key in (stuck if isinstance(stuck, Sequence) or not np.ndim(stuck) == 0 else [stuck]):
+        for key in stuck:
             mask[self.spec.joint_index(key if isinstance(key, str) else int(key))] = True
         return mask
 

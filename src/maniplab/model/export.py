@@ -89,6 +89,7 @@ def readable(spec: ManipulatorSpec, symbolic: tuple[str, ...]) -> Readable:
         doc.entries[group].append((label, e))
     doc.entries["Fv"] = [(f"F_{{v,{i + 1}}}", sympy.sympify(terms.viscous[i])) for i in range(n)]
     doc.names = _names(n, terms.symbols)
+    doc.names.update({t: f"x_{{{str(t)[1:]}}}" for t, _ in doc.temps})
     doc.parameters = [(doc.names[sympy.Symbol(str(s))], v, _meaning(str(s), spec))
                       for s, v in terms.symbols.items()]
     return doc
@@ -103,10 +104,6 @@ def _names(n: int, params: dict[Any, float]) -> dict[Any, str]:
         names[sympy.Symbol(f"qd{i + 1}")] = f"\\dot{{q}}_{{{i + 1}}}"
     for s in params:
         names[sympy.Symbol(str(s))] = _parameter_latex(str(s))
-    for k in range(100000):  # cse temporaries x0.. -> x_{0}
-        names[sympy.Symbol(f"x{k}")] = f"x_{{{k}}}"
-        if k > 20000:
-            break
     return names
 
 
