@@ -59,7 +59,7 @@ def _local_mjcf(spec: ml.ManipulatorSpec) -> str:
         com = body.com if body else (0.0, 0.0, 0.0)
         inertia = body.inertia if body else (0.0,) * 6
         kind = "slide" if joint.prismatic else "hinge"
-        parts.append(f'<body name="b{j}" pos="{v(pos)}">'
+        parts.append(f'<body name="link_{joint.name}" pos="{v(pos)}">'
                      f'<joint name="{joint.name}" type="{kind}" axis="{v(joint.axis_vector)}"/>'
                      f'<inertial pos="{v(com)}" mass="{mass!r}" fullinertia="{v(inertia)}"/>')
         close.append("</body>")
@@ -391,8 +391,9 @@ def _mujoco_or_reject(spec: ml.ManipulatorSpec) -> MjRef:
         ref = MjRef(spec)
     except ml.ModelError:
         assume(False)  # a joint moving no mass: MuJoCo cannot simulate the arm
-    q = np.zeros(spec.n)
-    assume(np.all(np.diag(ref.M(q)) > 1e-6))  # every joint moves some (real) mass
+    M = ref.M(np.zeros(spec.n))
+    assume(np.all(np.diag(M) > 1e-6))  # every joint moves some (real) mass ...
+    assume(np.linalg.cond(M) < 1e9)  # ... and no two joints move it the same way
     return ref
 
 
