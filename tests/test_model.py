@@ -76,9 +76,7 @@ def mujoco_model(spec: ml.ManipulatorSpec) -> mujoco.MjModel:
     """The project's MuJoCo model of the spec (or the local stand-in until it exists)."""
     try:
         return ml.build_model(spec)
-    except (NotImplementedError, StopIteration):
-        # StopIteration: mjcf_gen's camera placement fails for gravity along a cube diagonal
-        # (visuals._view; reported to its owner). The physics does not depend on the camera.
+    except NotImplementedError:
         return mujoco.MjModel.from_xml_string(_local_mjcf(spec))
 
 

@@ -78,10 +78,7 @@ class AnalyticModel:
 
     def mass_and_bias(self, q: ArrayLike, qd: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """M(q) and C q̇ + G in one evaluation: shapes (n, n), (n,) (or with a leading N)."""
-        out = self._k.mass_bias(self.params, q, qd)
-        n = self.n
-        lead = out.shape[:-1]
-        return out[..., : n * n].reshape(*lead, n, n), out[..., n * n:]
+        return self._k.mass_bias(self.params, q, qd)
 
     def friction(self, qd: ArrayLike) -> np.ndarray:
         """Viscous friction force Fv q̇, shape (n,) or (N, n)."""

@@ -99,9 +99,10 @@ def python_kernels_source(gen: Generated, header: str = "") -> str:
     """Python source of all kernels; expects sin, cos (and sqrt) in its namespace."""
     printer = python_printer(gen.engine)
     parts = [header] + [python_function(ck, printer) + "\n\n" for ck in gen.kernels]
-    table = ", ".join(f"{ck.kernel.name!r}: ({ck.kernel.nin}, {ck.kernel.shape!r})"
+    table = ", ".join(f"{ck.kernel.name!r}: ({ck.kernel.nin}, {ck.kernel.outputs!r})"
                       for ck in gen.kernels)
-    parts.append(f"# kernel name -> (how many of q, qd, qdd it reads, output shape)\nKERNELS = {{{table}}}\n")
+    parts.append(f"# kernel name -> (how many of q, qd, qdd it reads, output shapes)\n"
+                 f"KERNELS = {{{table}}}\n")
     return "\n".join(parts)
 
 
@@ -222,21 +223,28 @@ class PythonKernels:
         self._vector: dict[str, Any] = {"sin": np.sin, "cos": np.cos, "sqrt": np.sqrt}
         exec(code, self._scalar)
         exec(code, self._vector)
-        for name, (nin, shape) in self._scalar["KERNELS"].items():
-            setattr(self, name, self._wrap(name, nin, shape))
+        for name, (nin, shapes) in self._scalar["KERNELS"].items():
+            setattr(self, name, self._wrap(name, nin, shapes))
 
-    def _wrap(self, name: str, nin: int, shape: tuple[int, ...]) -> Any:
+    def _wrap(self, name: str, nin: int, shapes: tuple[tuple[int, ...], ...]) -> Any:
         scalar, vector, n = self._scalar[name], self._vector[name], self.n
+        sizes = [int(np.prod(s)) for s in shapes]
 
-        def call(p: Any, *states: Any) -> np.ndarray:
+        def split(flat: np.ndarray, lead: tuple[int, ...]) -> Any:
+            parts, start = [], 0
+            for shape, size in zip(shapes, sizes):
+                parts.append(flat[..., start:start + size].reshape(*lead, *shape).copy())
+                start += size
+            return parts[0] if len(parts) == 1 else tuple(parts)
+
+        def call(p: Any, *states: Any) -> Any:
             if len(states) != nin:
                 raise TypeError(f"{name}() takes {nin + 1} arguments ({len(states) + 1} given)")
             arrays = [np.asarray(s, dtype=float) for s in states]
             q = arrays[0]
             if q.shape == (n,):
                 args = [a.tolist() for a in arrays] + [None] * (3 - nin)
-                p = np.asarray(p)
-                return np.array(scalar(p.tolist(), *args)).reshape(shape)
+                return split(np.array(scalar(np.asarray(p).tolist(), *args)), ())
             if q.ndim != 2 or q.shape[1] != n or any(a.shape != q.shape for a in arrays):
                 raise ValueError(f"{name}(): q must have shape ({n},) or (N, {n}), and qd, qdd its shape")
             cols = [list(a.T) for a in arrays] + [None] * (3 - nin)
@@ -244,7 +252,7 @@ class PythonKernels:
             out = np.empty((q.shape[0], len(values)))
             for i, v in enumerate(values):
                 out[:, i] = v
-            return out.reshape((q.shape[0], *shape))
+            return split(out, (q.shape[0],))
 
         call.__name__ = name
         return call

@@ -13,6 +13,8 @@ the kernel's shape, or (N, *shape) for a batch.
 
 from __future__ import annotations
 
+import math
+
 from maniplab.model.codegen import CseKernel
 
 _WRAPPER = r"""
@@ -21,9 +23,31 @@ _WRAPPER = r"""
 #include <Python.h>
 #define NPY_NO_DEPRECATED_API NPY_1_7_API_VERSION
 #include <numpy/arrayobject.h>
+#include <string.h>
 
 typedef void (*ml_kernel)(const double *, const double *, const double *, const double *, double *);
-typedef struct { const char *name; ml_kernel fn; int nin; int ndim; npy_intp shape[2]; } ml_entry;
+/* a kernel: its inputs, and one output (ndim2 = 0) or two written one after the other */
+typedef struct {
+    const char *name; ml_kernel fn; int nin;
+    int ndim; npy_intp shape[2]; int ndim2; npy_intp shape2[2];
+} ml_entry;
+
+static npy_intp ml_size(int ndim, const npy_intp *shape)
+{
+    npy_intp size = 1;
+    int i;
+    for (i = 0; i < ndim; i++) size *= shape[i];
+    return size;
+}
+
+static PyObject *ml_new(npy_intp batch, int ndim, const npy_intp *shape)
+{
+    npy_intp dims[3];
+    int i, nd = 0;
+    if (batch >= 0) dims[nd++] = batch;
+    for (i = 0; i < ndim; i++) dims[nd++] = shape[i];
+    return PyArray_SimpleNew(nd, dims, NPY_DOUBLE);
+}
 
 static PyArrayObject *ml_array(PyObject *obj)
 {
@@ -37,13 +61,14 @@ static PyArrayObject *ml_array(PyObject *obj)
     return (PyArrayObject *)PyArray_FROMANY(obj, NPY_DOUBLE, 0, 0, NPY_ARRAY_IN_ARRAY);
 }
 
+/* Evaluate a kernel for one state or a batch; returns an array, or a pair for two outputs. */
 static PyObject *ml_call(const ml_entry *e, PyObject *const *args, Py_ssize_t nargs)
 {
     PyArrayObject *a[4] = {NULL, NULL, NULL, NULL};
     const double *ptr[4] = {NULL, NULL, NULL, NULL};
-    PyObject *result = NULL;
-    npy_intp batch = -1, dims[3];
-    int i, nd = 0;
+    PyObject *result = NULL, *second = NULL;
+    npy_intp batch = -1;
+    int i;
     if (nargs != 1 + e->nin) {
         PyErr_Format(PyExc_TypeError, "%s() takes %d arguments (%zd given)", e->name, 1 + e->nin,
                      nargs);
@@ -71,24 +96,36 @@ static PyObject *ml_call(const ml_entry *e, PyObject *const *args, Py_ssize_t na
             goto done;
         }
     }
-    if (batch >= 0) dims[nd++] = batch;
-    for (i = 0; i < e->ndim; i++) dims[nd++] = e->shape[i];
-    if (!(result = PyArray_SimpleNew(nd, dims, NPY_DOUBLE))) goto done;
+    if (!(result = ml_new(batch, e->ndim, e->shape))) goto done;
+    if (e->ndim2 && !(second = ml_new(batch, e->ndim2, e->shape2))) {
+        Py_CLEAR(result);
+        goto done;
+    }
     {
-        double *out = (double *)PyArray_DATA((PyArrayObject *)result);
         npy_intp k, count = batch < 0 ? 1 : batch;
-        npy_intp size = e->ndim == 1 ? e->shape[0] : e->shape[0] * e->shape[1];
-        if (count > 256) {
-            Py_BEGIN_ALLOW_THREADS
-            for (k = 0; k < count; k++)
-                e->fn(ptr[0], ptr[1] + k * ML_N, ptr[2] ? ptr[2] + k * ML_N : NULL,
-                      ptr[3] ? ptr[3] + k * ML_N : NULL, out + k * size);
-            Py_END_ALLOW_THREADS
-        } else {
-            for (k = 0; k < count; k++)
-                e->fn(ptr[0], ptr[1] + k * ML_N, ptr[2] ? ptr[2] + k * ML_N : NULL,
-                      ptr[3] ? ptr[3] + k * ML_N : NULL, out + k * size);
+        npy_intp size = ml_size(e->ndim, e->shape), size2 = ml_size(e->ndim2, e->shape2);
+        double *out = (double *)PyArray_DATA((PyArrayObject *)result);
+        double *out2 = second ? (double *)PyArray_DATA((PyArrayObject *)second) : NULL;
+        double buffer[ML_N * ML_N + ML_N];
+        PyThreadState *released = count > 256 ? PyEval_SaveThread() : NULL;  /* a long batch */
+        for (k = 0; k < count; k++) {
+            const double *qd = ptr[2] ? ptr[2] + k * ML_N : NULL;
+            const double *qdd = ptr[3] ? ptr[3] + k * ML_N : NULL;
+            if (!second) {
+                e->fn(ptr[0], ptr[1] + k * ML_N, qd, qdd, out + k * size);
+            } else {  /* two outputs: the kernel writes both into one buffer */
+                e->fn(ptr[0], ptr[1] + k * ML_N, qd, qdd, buffer);
+                memcpy(out + k * size, buffer, size * sizeof(double));
+                memcpy(out2 + k * size2, buffer + size, size2 * sizeof(double));
+            }
         }
+        if (released) PyEval_RestoreThread(released);
+    }
+    if (second) {
+        PyObject *pair = PyTuple_Pack(2, result, second);
+        Py_DECREF(result);
+        Py_DECREF(second);
+        result = pair;
     }
 done:
     for (i = 0; i < 4; i++) Py_XDECREF(a[i]);
@@ -99,9 +136,16 @@ done:
 
 def extension_source(kernels: list[CseKernel], module_name: str) -> str:
     """The Python wrapper part (compiled only with -DML_PYTHON) for ``kernels``."""
+    for ck in kernels:  # a split kernel's one output must fit ml_call's stack buffer
+        assert sum(math.prod(s) for s in ck.kernel.outputs) <= ck.kernel.shape[0] ** 2 + \
+            ck.kernel.shape[0] or not ck.kernel.second
+
+    def dims(shape: tuple[int, ...]) -> str:
+        return f"{len(shape)}, {{{', '.join(str(s) for s in shape) or '0'}}}"
+
     table = ",\n    ".join(
-        f'{{"{ck.kernel.name}", ml_{ck.kernel.name}, {ck.kernel.nin}, {len(ck.kernel.shape)}, '
-        f'{{{", ".join(str(s) for s in ck.kernel.shape)}}}}}'
+        f'{{"{ck.kernel.name}", ml_{ck.kernel.name}, {ck.kernel.nin}, {dims(ck.kernel.shape)}, '
+        f'{dims(ck.kernel.second)}}}'
         for ck in kernels)
     wrappers = "\n".join(
         f"static PyObject *py_{ck.kernel.name}(PyObject *self, PyObject *const *args, "

@@ -20,7 +20,7 @@ from maniplab.model.engine import Engine, Expr
 from maniplab.model.kinematics import Chain, point_jacobian
 
 #: Bump when the generated code changes in any way: it is part of every cache key.
-GENERATOR_VERSION = "1"
+GENERATOR_VERSION = "2"
 
 INPUTS = ("q", "qd", "qdd")
 
@@ -33,6 +33,7 @@ class Kernel:
         name: C and Python name suffix ("M", "bias", ...).
         nin: how many of q, qd, qdd it reads (1 to 3).
         shape: shape of the output for one state.
+        second: shape of a second output, written after the first (empty: one output).
         exprs: the output expressions, flattened in C order.
         doc: one line on what it computes.
     """
@@ -42,6 +43,12 @@ class Kernel:
     shape: tuple[int, ...]
     exprs: tuple[Expr, ...]
     doc: str
+    second: tuple[int, ...] = ()
+
+    @property
+    def outputs(self) -> tuple[tuple[int, ...], ...]:
+        """Shapes of the outputs for one state (the flat expressions fill them in order)."""
+        return (self.shape, self.second) if self.second else (self.shape,)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -87,7 +94,8 @@ def model_kernels(ch: Chain, dyn: Dynamics, qdd: list, engine: Engine) -> list[K
         Kernel("C", 2, (n, n), _flat(dyn.C), "Christoffel matrix C(q, qd)"),
         Kernel("G", 1, (n,), _flat(dyn.G), "gravity forces G(q)"),
         Kernel("bias", 2, (n,), _flat(bias), "bias forces C(q, qd) qd + G(q)"),
-        Kernel("mass_bias", 2, (n * n + n,), _flat(dyn.M) + _flat(bias), "M(q), then C qd + G"),
+        Kernel("mass_bias", 2, (n, n), _flat(dyn.M) + _flat(bias), "M(q) and C(q, qd) qd + G(q)",
+               second=(n,)),
         Kernel("inverse_dynamics", 3, (n,), _flat(tau), "M(q) qdd + C(q, qd) qd + G(q)"),
         Kernel("fk", 1, (4, 4), _flat(pose), "end-effector pose, 4x4"),
         Kernel("jacobian", 1, (6, n), _flat(jac), "end-effector Jacobian [linear; angular]"),
@@ -137,7 +145,8 @@ def _input_symbols(ck: CseKernel) -> list[tuple[str, str, int]]:
 def c_function(ck: CseKernel, printer: Callable[[Expr], str], prefix: str = "ml_") -> str:
     """C definition of one kernel (the uniform signature in the module docstring)."""
     k = ck.kernel
-    lines = [f"/* {k.doc}: out has {_size(k.shape)} entries (shape {k.shape}, C order) */",
+    size = sum(_size(s) for s in k.outputs)
+    lines = [f"/* {k.doc}: out has {size} entries (shapes {k.outputs}, C order) */",
              f"void {prefix}{k.name}(const double *restrict p, const double *restrict q,",
              "        const double *restrict qd, const double *restrict qdd, double *restrict out)",
              "{",
@@ -153,7 +162,8 @@ def python_function(ck: CseKernel, printer: Callable[[Expr], str]) -> str:
     """Python definition ``def <name>(p, q, qd, qdd)`` returning a tuple of the outputs."""
     k = ck.kernel
     lines = [f"def {k.name}(p, q, qd, qdd):",
-             f"    \"\"\"{k.doc}: tuple of {_size(k.shape)} floats (shape {k.shape}, C order).\"\"\""]
+             f"    \"\"\"{k.doc}: tuple of {sum(_size(s) for s in k.outputs)} floats "
+             f"(shapes {k.outputs}, C order).\"\"\""]
     lines += [f"    {s} = {arr}[{i}]" for s, arr, i in _input_symbols(ck)]
     lines += [f"    {t} = {printer(e)}" for t, e in ck.temps]
     outputs = ", ".join(printer(e) for e in ck.outputs)
