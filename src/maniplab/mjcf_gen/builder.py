@@ -1,0 +1,199 @@
+"""Construction of the MuJoCo model of a spec with MuJoCo's MjSpec API.
+
+:func:`build_mjspec` is the one place the model is put together; :func:`build_model` compiles it and
+:mod:`maniplab.mjcf_gen.writer` serialises it. The model follows eq. (1) of the paper:
+
+- one body per spec joint, ``link_<joint>`` (see :mod:`~maniplab.mjcf_gen.names`), with the joint
+  (hinge or slide, about or along the joint's base axis) at the body's origin; the next joint's body
+  sits at ``length * direction`` of this one (at its origin when the joint has no body);
+- the body's inertial frame is the spec's ``com`` with the spec's full inertia (kg·m², about the COG,
+  base axes); all bodies keep the base orientation (identity quaternions);
+- the end-effector is a fixed body ``end_effector`` (no joint) on the last link at
+  ``length_n * direction_n + offset`` holding the payload as a point mass;
+- one actuator per joint named after it: a force/torque source (gain 1, ``ctrlrange`` ±limit) for
+  ``torque`` joints and a ``user`` actuator with two activation states (ΔP, Q) for hydraulic ones.
+
+Compiler choices, all written to the MJCF:
+
+- ``angle="radian"`` (MjSpec's default is degrees, which would scale the ranges);
+- ``inertiafromgeom="false"``: the inertia is the spec's, geoms are decoration;
+- ``boundmass = boundinertia = 1e-12``: MuJoCo refuses moving bodies without mass and inertia, but
+  the spec allows bodyless joints, massless bodies, slender rods and point masses (an inertia with a
+  zero principal moment). MuJoCo lifts any mass or principal moment below the bound to it, an
+  absolute perturbation of 1e-12 kg or kg·m² that is invisible at the 1e-9 relative cross-checks.
+  Whether each joint still moves real mass is checked after compiling
+  (:func:`maniplab.mjcf_gen.checks.check_drives_mass`).
+- ``timestep = 1e-3`` s and the ``RK4`` integrator: the hydraulic states are stiff and smooth.
+"""
+
+from __future__ import annotations
+
+import os
+
+import mujoco
+import numpy as np
+
+from maniplab.builtin import resolve_spec
+from maniplab.mjcf_gen import checks, names, visuals
+from maniplab.spec import (
+    Body,
+    EndEffector,
+    HydraulicActuator,
+    Joint,
+    ManipulatorSpec,
+    inertia_matrix,
+)
+
+MASS_BOUND = 1e-12
+"""``compiler.boundmass`` and ``boundinertia``: kg and kg·m²."""
+
+TIMESTEP = 1e-3
+"""Default ``option.timestep``, s."""
+
+INTEGRATOR = mujoco.mjtIntegrator.mjINT_RK4
+"""Default ``option.integrator``."""
+
+HYDRAULIC_STATES = 2
+"""Activation states of a hydraulic actuator: ΔP (Pa) and Q (m³/s), in that order."""
+
+_TRIANGLE_MARGIN = 1e-12  # relative; MuJoCo's own eigen-solver errs by ~1e-15
+
+SpecLike = ManipulatorSpec | str | os.PathLike[str]
+
+
+def build_mjspec(spec: SpecLike) -> mujoco.MjSpec:
+    """The MuJoCo model of ``spec`` as an (uncompiled) MjSpec.
+
+    Args:
+        spec: a spec, a spec file or a built-in spec name.
+
+    Returns:
+        A fresh MjSpec; compile it with ``.compile()`` or use :func:`build_model`, which also checks it.
+
+    Raises:
+        SpecError: ``spec`` names no file or built-in, or the file is invalid.
+    """
+    spec = resolve_spec(spec)
+    s = mujoco.MjSpec()
+    s.modelname = spec.name
+    _configure(s, spec)
+    scene = visuals.scene_of(spec)
+    visuals.set_visual(s, scene)
+    visuals.add_assets(s, scene)
+    visuals.add_world(s, scene)
+    parent, at = s.worldbody, np.zeros(3)
+    for index, joint in enumerate(spec.joints):
+        body = _add_link(parent, joint, at)
+        visuals.decorate_link(body, parent, joint, index, scene)
+        parent, at = body, joint.offset
+    tip = _add_end_effector(parent, spec.end_effector, at)
+    visuals.decorate_end_effector(tip, spec.end_effector, scene)
+    for joint in spec.joints:
+        _add_actuator(s, joint)
+    return s
+
+
+def build_model(spec: SpecLike) -> mujoco.MjModel:
+    """The compiled MuJoCo model of ``spec``, checked to be simulable.
+
+    Args:
+        spec: a spec, a spec file or a built-in spec name.
+
+    Returns:
+        The model; qpos, qvel and ctrl follow the spec's joint order.
+
+    Raises:
+        SpecError: ``spec`` names no file or built-in, or the file is invalid.
+        ModelError: MuJoCo refuses the model, or a joint drives no mass or inertia, or two joints
+            move the arm the same way (the message names the file and the joints).
+    """
+    spec = resolve_spec(spec)
+    model = checks.compile_checked(build_mjspec(spec), spec)
+    checks.check_drives_mass(model, spec)
+    return model
+
+
+def _configure(s: mujoco.MjSpec, spec: ManipulatorSpec) -> None:
+    s.compiler.degree = False
+    s.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
+    s.compiler.boundmass = MASS_BOUND
+    s.compiler.boundinertia = MASS_BOUND
+    s.option.gravity = list(spec.gravity)
+    s.option.timestep = TIMESTEP
+    s.option.integrator = INTEGRATOR
+
+
+def _add_link(parent: mujoco.MjsBody, joint: Joint, at: np.ndarray) -> mujoco.MjsBody:
+    """The body moved by ``joint``, placed at ``at`` in ``parent`` (m), with its joint and inertia."""
+    body = parent.add_body(name=names.body_name(joint.name), pos=list(at))
+    _set_inertial(body, joint.body or Body())
+    limited = mujoco.mjtLimited.mjLIMITED_TRUE if joint.limits else mujoco.mjtLimited.mjLIMITED_FALSE
+    body.add_joint(
+        name=joint.name,
+        type=mujoco.mjtJoint.mjJNT_SLIDE if joint.prismatic else mujoco.mjtJoint.mjJNT_HINGE,
+        axis=list(joint.axis_vector),
+        range=list(joint.limits) if joint.limits else [0.0, 0.0],
+        limited=limited,
+    )
+    return body
+
+
+def _set_inertial(body: mujoco.MjsBody, link: Body) -> None:
+    body.explicitinertial = True
+    body.mass = link.mass
+    body.ipos = list(link.com)
+    body.fullinertia = list(compilable_inertia(link.inertia))
+
+
+def compilable_inertia(inertia: tuple[float, ...]) -> tuple[float, ...]:
+    """The spec's inertia, shifted just enough that MuJoCo accepts it as a rigid body's.
+
+    MuJoCo requires the principal moments to satisfy A + B >= C exactly (after lifting each to
+    ``boundinertia``), but finds them by an eigen-decomposition that errs by ~1e-15 relative, so a
+    flat plate (A + B = C) or a rotated heavy rod fails at random. When the margin A + B - C is below
+    1e-12 C, this adds the missing margin to all three moments (an isotropic shift, which keeps the
+    principal axes); the change is at most 1e-12 relative, plus whatever violation within its
+    1e-9 tolerance the spec validation accepted.
+
+    Args:
+        inertia: [Ixx, Iyy, Izz, Ixy, Ixz, Iyz] about the COG, kg·m².
+
+    Returns:
+        The same, possibly with a small constant added to Ixx, Iyy and Izz.
+    """
+    low, mid, high = np.linalg.eigvalsh(inertia_matrix(inertia))
+    shortfall = _TRIANGLE_MARGIN * high - (max(low, MASS_BOUND) + mid - high)
+    if high <= 0.0 or shortfall <= 0.0:
+        return tuple(float(v) for v in inertia)
+    return tuple(float(v) + shortfall for v in inertia[:3]) + tuple(float(v) for v in inertia[3:])
+
+
+def _add_end_effector(parent: mujoco.MjsBody, ee: EndEffector, at: np.ndarray) -> mujoco.MjsBody:
+    """Fixed body with the payload's point mass, at ``at + offset`` in the last link (m)."""
+    body = parent.add_body(name=names.END_EFFECTOR, pos=list(at + np.asarray(ee.offset)))
+    _set_inertial(body, Body(mass=ee.mass, com=(0.0, 0.0, 0.0), inertia=(0.0,) * 6))
+    return body
+
+
+def _add_actuator(s: mujoco.MjSpec, joint: Joint) -> None:
+    """Actuator named after ``joint``; a hydraulic one's dynamics, gain and bias are user callbacks.
+
+    Without callbacks MuJoCo treats user terms as zero, so the model still loads and runs in any
+    MuJoCo tool; the plant (``maniplab.sim``) installs the hydraulics of eq. (4).
+    """
+    act = s.add_actuator(name=joint.name, target=joint.name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+    spec = joint.actuator
+    if isinstance(spec, HydraulicActuator):
+        act.dyntype = mujoco.mjtDyn.mjDYN_USER
+        act.gaintype = mujoco.mjtGain.mjGAIN_USER
+        act.biastype = mujoco.mjtBias.mjBIAS_USER
+        act.actdim = HYDRAULIC_STATES
+        act.actlimited = mujoco.mjtLimited.mjLIMITED_FALSE
+        limit: float | None = spec.current_limit
+    else:
+        limit = spec.limit
+    if limit is None:
+        act.ctrllimited = mujoco.mjtLimited.mjLIMITED_FALSE
+    else:
+        act.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
+        act.ctrlrange = [-limit, limit]
