@@ -11,7 +11,6 @@ import importlib.util
 import math
 import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import mujoco
@@ -22,7 +21,7 @@ import sympy
 import maniplab as ml
 from maniplab.cli import main
 from maniplab.model import SymbolicModel
-from maniplab.model.export import export_model, readable
+from maniplab.model.export import readable
 from test_model import MjRef, _model_cache, assert_close, random_states  # noqa: F401 (fixture)
 
 CC = shutil.which("cc") or shutil.which("gcc")

@@ -17,11 +17,11 @@ from typing import Any
 
 import sympy
 
-from maniplab.model.build import Generated, generate, symbols
+from maniplab.model.build import Generated, generate
 from maniplab.model.codegen import c_function, c_printer, python_function, python_printer
 from maniplab.model.dynamics import derive
 from maniplab.model.engine import get_engine
-from maniplab.model.parameters import GROUPS, arm_terms
+from maniplab.model.parameters import arm_terms
 from maniplab.spec import ManipulatorSpec
 
 FORMATS = ("latex", "markdown", "python", "c")
@@ -256,4 +256,5 @@ def c_file(spec: ManipulatorSpec) -> str:
     return "\n".join(out)
 
 
-__all__ = ["DEFAULT_SYMBOLIC", "FORMATS", "GROUPS", "SUFFIXES", "export_model", "symbols"]
+__all__ = ["DEFAULT_SYMBOLIC", "FORMATS", "SUFFIXES", "c_file", "export_model", "python_module",
+           "readable"]

@@ -16,7 +16,7 @@ import sympy
 from maniplab.model.dynamics import derive
 from maniplab.model.engine import get_engine
 from maniplab.model.kinematics import homogeneous, point_jacobian
-from maniplab.model.parameters import GROUPS, arm_terms
+from maniplab.model.parameters import arm_terms
 from maniplab.spec import ManipulatorSpec
 
 
@@ -134,4 +134,4 @@ def _parameter_latex(name: str) -> str:
     return name
 
 
-__all__ = ["GROUPS", "SymbolicModel"]
+__all__ = ["SymbolicModel"]
