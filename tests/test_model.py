@@ -41,49 +41,11 @@ def _model_cache(tmp_path_factory: pytest.TempPathFactory) -> None:
 
 # --- MuJoCo side ---------------------------------------------------------------------------------
 
-def _local_mjcf(spec: ml.ManipulatorSpec) -> str:
-    """MJCF of the spec written here, used only while ``ml.build_model`` is not implemented.
-
-    One body per joint with the joint at its origin, the next body at length·direction, the
-    payload a point mass in a fixed end-effector body at the payload point (DESIGN.md).
-    """
-    def v(x) -> str:
-        return " ".join(repr(float(c)) for c in x)
-
-    parts, close = [], []
-    pos = np.zeros(3)
-    for j, joint in enumerate(spec.joints):
-        body = joint.body
-        mass = body.mass if body else 0.0
-        com = body.com if body else (0.0, 0.0, 0.0)
-        inertia = body.inertia if body else (0.0,) * 6
-        kind = "slide" if joint.prismatic else "hinge"
-        parts.append(f'<body name="link_{joint.name}" pos="{v(pos)}">'
-                     f'<joint name="{joint.name}" type="{kind}" axis="{v(joint.axis_vector)}"/>'
-                     f'<inertial pos="{v(com)}" mass="{mass!r}" fullinertia="{v(inertia)}"/>')
-        close.append("</body>")
-        pos = joint.offset
-    ee = spec.end_effector
-    parts.append(f'<body name="end_effector" pos="{v(pos + np.asarray(ee.offset))}">'
-                 f'<inertial pos="0 0 0" mass="{ee.mass!r}" diaginertia="0 0 0"/></body>')
-    return (f'<mujoco><compiler boundmass="1e-12" boundinertia="1e-12"/>'
-            f'<option gravity="{v(spec.gravity)}"/><worldbody>{"".join(parts)}'
-            f'{"".join(close)}</worldbody></mujoco>')
-
-
-def mujoco_model(spec: ml.ManipulatorSpec) -> mujoco.MjModel:
-    """The project's MuJoCo model of the spec (or the local stand-in until it exists)."""
-    try:
-        return ml.build_model(spec)
-    except NotImplementedError:
-        return mujoco.MjModel.from_xml_string(_local_mjcf(spec))
-
-
 class MjRef:
     """MuJoCo's numbers for one arm at given states."""
 
     def __init__(self, spec: ml.ManipulatorSpec) -> None:
-        self.m = mujoco_model(spec)
+        self.m = ml.build_model(spec)
         # friction/damping/armature would change MuJoCo's dynamics; the rigid-body check needs none
         self.m.dof_damping[:] = 0.0
         self.m.dof_armature[:] = 0.0
