@@ -1,0 +1,96 @@
+"""The result of a simulation: time, joint states and named signals, with the spec that made them."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+from collections.abc import Iterator, Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from maniplab.errors import ManiplabError
+from maniplab.spec import ManipulatorSpec
+
+#: Units of the standard signals ("joint" means rad for R joints and m for P joints).
+UNITS: dict[str, str] = {
+    "q": "rad | m", "qd": "rad/s | m/s", "qdd": "rad/s² | m/s²",
+    "tau_act": "N·m | N", "tau_fric": "N·m | N", "dP": "Pa", "Q": "m³/s", "iv": "A",
+    "mode": "FrictionMode", "ee_pos": "m", "ctrl": "A | N·m | N",
+}
+
+
+class RunFileError(ManiplabError):
+    """A stored run cannot be read (missing, truncated, corrupt or from an unknown format)."""
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Run:
+    """Sampled trajectory of one simulation.
+
+    Attributes:
+        t: sample times, s, shape (N,).
+        signals: name -> array of shape (N, n) per joint (NaN where a joint has no such element,
+            e.g. ΔP of a torque joint), or (N, k) for other signals (``ee_pos`` is (N, 3)).
+            Standard names: q, qd, tau_act, tau_fric, dP, Q, iv, mode, ee_pos (see ``UNITS``).
+        spec: the spec simulated, with every override applied.
+        meta: how the run was made (overrides, inputs, controller, dt, integrator, versions...),
+            JSON-serialisable.
+    """
+
+    t: np.ndarray
+    signals: Mapping[str, np.ndarray]
+    spec: ManipulatorSpec
+    meta: Mapping[str, Any] = dataclasses.field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        n = len(self.t)
+        for name, values in self.signals.items():
+            if len(values) != n:
+                raise ValueError(f"signal {name!r} has {len(values)} samples, t has {n}")
+
+    @property
+    def q(self) -> np.ndarray:
+        """Joint positions, rad or m, shape (N, n)."""
+        return self.signals["q"]
+
+    @property
+    def qd(self) -> np.ndarray:
+        """Joint velocities, rad/s or m/s, shape (N, n)."""
+        return self.signals["qd"]
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        try:
+            return self.signals[name]
+        except KeyError:
+            raise KeyError(f"run has no signal {name!r}; it has {', '.join(self.signals)}") from None
+
+    def __contains__(self, name: object) -> bool:
+        return name in self.signals
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.signals)
+
+    @property
+    def label(self) -> str:
+        """A short name for legends: the run's ``meta['label']`` or the spec's name."""
+        return str(self.meta.get("label", self.spec.name))
+
+    def save(self, path: str | os.PathLike[str]) -> None:
+        """Write the run to ``path`` (.npz) atomically; :meth:`load` reads it back bit for bit."""
+        from maniplab.sim import store
+
+        store.save(self, Path(path))
+
+    @classmethod
+    def load(cls, path: str | os.PathLike[str]) -> Run:
+        """Read a run written by :meth:`save`; raises RunFileError when it cannot."""
+        from maniplab.sim import store
+
+        return store.load(Path(path))
+
+    def to_json_meta(self) -> str:
+        """The spec and meta as one JSON document (what the file stores beside the arrays)."""
+        return json.dumps({"spec": self.spec.to_dict(), "meta": dict(self.meta)}, sort_keys=True)
