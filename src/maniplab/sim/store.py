@@ -1,27 +1,71 @@
-"""Run files: one .npz per run (numpy's zip of arrays, readable by any numpy, and by other tools
-through the zip of .npy files), with the spec and the run's metadata as a JSON document inside."""
+"""Run files: one ``.npz`` per run.
+
+Why .npz: it is numpy's own container (a zip of ``.npy`` arrays), read by any numpy without
+maniplab, and by MATLAB, Julia or R through their npy readers; it needs no extra dependency (HDF5
+would add h5py and a C library) and keeps every float bit for bit. Beside the arrays, a JSON
+header holds the spec (every default written out), the run's metadata (overrides, inputs,
+controller, step), the units of the signals, the maniplab and MuJoCo versions, and a SHA-256
+content hash over the arrays and the header, checked on load so a corrupt file is never used.
+"""
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import tempfile
 import zipfile
+from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from maniplab.errors import SpecError
-from maniplab.sim.run import Run, RunFileError
+from maniplab.sim.run import UNITS, Run, RunFileError
 from maniplab.spec import ManipulatorSpec
 
 FORMAT = "maniplab-run/1"
 
 
+def content_hash(t: np.ndarray, signals: dict[str, np.ndarray], header: dict[str, Any]) -> str:
+    """SHA-256 (hex) over the time vector, every signal (name, dtype, shape, bytes) and the header
+    without its hash entry."""
+    digest = hashlib.sha256()
+    body = {k: v for k, v in header.items() if k != "hash"}
+    digest.update(json.dumps(body, sort_keys=True).encode())
+    for name, values in [("t", t), *sorted(signals.items())]:
+        values = np.ascontiguousarray(values)
+        digest.update(f"{name}|{values.dtype.str}|{values.shape}|".encode())
+        digest.update(values.tobytes())
+    return digest.hexdigest()
+
+
+def header_of(run: Run) -> dict[str, Any]:
+    """The JSON header stored with ``run`` (format, spec, meta, units, versions, hash)."""
+    header = {
+        "format": FORMAT,
+        "spec": run.spec.to_dict(),
+        "meta": dict(run.meta),
+        "units": {k: UNITS[k] for k in run.signals if k in UNITS},
+        "versions": {"maniplab": _version("maniplab"), "mujoco": _version("mujoco")},
+    }
+    header["hash"] = content_hash(np.asarray(run.t), dict(run.signals), header)
+    return header
+
+
+def _version(package: str) -> str:
+    try:
+        return version(package)
+    except PackageNotFoundError:
+        return "unknown"
+
+
 def save(run: Run, path: Path) -> None:
-    """Write ``run`` to ``path`` through a temporary file, so an interruption leaves no half file."""
+    """Write ``run`` to ``path`` through a temporary file, so an interruption leaves no half file
+    and an earlier file of that name stays intact until the new one is complete."""
     arrays = {f"signal/{name}": np.asarray(values) for name, values in run.signals.items()}
-    header = json.dumps({"format": FORMAT, "spec": run.spec.to_dict(), "meta": dict(run.meta)})
+    header = json.dumps(header_of(run))
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
@@ -33,21 +77,47 @@ def save(run: Run, path: Path) -> None:
         raise
 
 
-def load(path: Path) -> Run:
-    """Read a run file; raises RunFileError naming the file and what is wrong."""
-    if not path.is_file():
-        raise RunFileError(f"{path}: no such run file")
+def read_header(path: Path) -> dict[str, Any]:
+    """Only the JSON header of a run file (cheap: the arrays are not read)."""
+    _check_exists(path)
     try:
         with np.load(path, allow_pickle=False) as data:
             header = json.loads(str(data["header"]))
+    except _READ_ERRORS as exc:
+        raise RunFileError(f"{path}: not a readable maniplab run file ({_why(exc)})") from None
+    if not isinstance(header, dict) or header.get("format") != FORMAT:
+        found = header.get("format") if isinstance(header, dict) else None
+        raise RunFileError(f"{path}: unknown run format {found!r}; expected {FORMAT}")
+    return header
+
+
+def load(path: Path) -> Run:
+    """Read a run file and check its content hash; raises RunFileError naming the file and what
+    is wrong (missing, truncated, corrupt, unknown format, invalid spec)."""
+    header = read_header(path)
+    try:
+        with np.load(path, allow_pickle=False) as data:
             t = data["t"]
             signals = {k.removeprefix("signal/"): data[k] for k in data.files if k.startswith("signal/")}
-    except (OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError, json.JSONDecodeError) as exc:
-        raise RunFileError(f"{path}: not a readable maniplab run file ({exc})") from None
-    if header.get("format") != FORMAT:
-        raise RunFileError(f"{path}: unknown run format {header.get('format')!r}; expected {FORMAT}")
+    except _READ_ERRORS as exc:
+        raise RunFileError(f"{path}: not a readable maniplab run file ({_why(exc)})") from None
+    if content_hash(t, signals, header) != header.get("hash"):
+        raise RunFileError(f"{path}: content hash mismatch; the file is corrupt or was edited")
     try:
         spec = ManipulatorSpec.from_dict(header["spec"], source=str(path))
     except SpecError as exc:
         raise RunFileError(f"{path}: the stored spec is invalid ({exc.problem})") from None
     return Run(t=t, signals=signals, spec=spec, meta=header.get("meta", {}))
+
+
+_READ_ERRORS = (OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError, json.JSONDecodeError)
+
+
+def _check_exists(path: Path) -> None:
+    if not path.is_file():
+        raise RunFileError(f"{path}: no such run file")
+
+
+def _why(exc: BaseException) -> str:
+    text = str(exc).splitlines()[0] if str(exc) else exc.__class__.__name__
+    return text[:120]

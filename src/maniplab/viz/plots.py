@@ -1,0 +1,149 @@
+"""Comparison plots: any signals of any runs overlaid, one row of subplots per signal.
+
+Each run is one colour throughout the figure; the legend names each run by the parameters that
+differ between the runs (``payload=3000, q2 leakage=1e-11``).
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from pathlib import Path
+
+import matplotlib
+import numpy as np
+from matplotlib.figure import Figure
+
+from maniplab.actuators.modes import FrictionMode
+from maniplab.errors import ManiplabError
+from maniplab.sim import params
+from maniplab.sim.run import Run
+
+#: signal -> (axis label, scale to display unit, unit of R joints, unit of P joints)
+_DISPLAY: dict[str, tuple[str, float, str, str]] = {
+    "q": ("position", 1.0, "rad", "m"),
+    "qd": ("velocity", 1.0, "rad/s", "m/s"),
+    "qdd": ("acceleration", 1.0, "rad/s²", "m/s²"),
+    "tau_act": ("actuator force", 1e-3, "kN·m", "kN"),
+    "tau_fric": ("friction force", 1e-3, "kN·m", "kN"),
+    "dP": ("ΔP", 1e-6, "MPa", "MPa"),
+    "Q": ("oil flow", 6e4, "L/min", "L/min"),
+    "iv": ("valve current", 1.0, "A", "A"),
+    "ctrl": ("command", 1.0, "", ""),
+    "mode": ("friction mode", 1.0, "", ""),
+}
+_STYLE = {
+    "font.size": 9, "axes.titlesize": 9, "axes.labelsize": 9, "legend.fontsize": 8,
+    "lines.linewidth": 1.3, "axes.grid": True, "grid.alpha": 0.3, "axes.spines.top": False,
+    "axes.spines.right": False, "savefig.dpi": 150, "savefig.bbox": "tight",
+}
+
+
+class PlotError(ManiplabError):
+    """A plot was asked for signals or joints the runs do not have."""
+
+
+def compare(runs: Sequence[Run], signals: Sequence[str] = ("q",),
+            joints: Sequence[str] | None = None, labels: Sequence[str] | None = None,
+            title: str | None = None) -> Figure:
+    """Overlay signals of several runs of the same arm.
+
+    Args:
+        runs: the runs (at least one).
+        signals: signal names (``q``, ``qd``, ``dP``, ``iv``, ``tau_fric``, ``mode``, ...) and
+            ``ee_path`` for the end-effector path; one row of subplots each.
+        joints: joint names for the columns of per-joint signals (default: every joint where some
+            run has a finite value of the first per-joint signal).
+        labels: legend entries (default: the parameters that differ between the runs).
+        title: figure title (default: the arm's name).
+
+    Returns:
+        The matplotlib figure; save it with :func:`save_figure`.
+    """
+    if not runs:
+        raise PlotError("no runs to plot")
+    spec = runs[0].spec
+    names = list(joints) if joints else _active_joints(runs, [s for s in signals if s != "ee_path"])
+    for name in names:
+        spec.joint(name)  # raises SpecError naming the valid joints
+    labels = list(labels) if labels else params.labels(
+        [params.flatten_spec(r.spec) for r in runs], [r.label for r in runs])
+    with matplotlib.rc_context(_STYLE):
+        ncols = max(len(names), 1)
+        # the object API (no pyplot): no global figure state, works headless
+        fig = Figure(figsize=(2.8 * ncols + 0.6, 2.1 * len(signals)), layout="constrained")
+        axes = fig.subplots(len(signals), ncols, squeeze=False)
+        for row, signal in enumerate(signals):
+            if signal == "ee_path":
+                _plot_path(fig, axes[row], runs, labels)
+            else:
+                for col, name in enumerate(names):
+                    _plot_joint(axes[row, col], runs, labels, signal, spec.joint_index(name))
+        handles, texts = axes[0, 0].get_legend_handles_labels()
+        fig.suptitle(title or spec.name)
+        fig.legend(handles, texts, loc="outside lower center", ncols=min(len(runs), 3), frameon=False)
+    return fig
+
+
+def _active_joints(runs: Sequence[Run], signals: Sequence[str]) -> list[str]:
+    spec = runs[0].spec
+    if not signals:
+        return []
+    for run in runs:
+        if signals[0] not in run:
+            raise PlotError(f"run {run.label!r} has no signal {signals[0]!r}; it has {', '.join(run)}")
+    finite = np.zeros(spec.n, dtype=bool)
+    for run in runs:
+        finite |= np.isfinite(np.asarray(run[signals[0]], dtype=float)).any(axis=0)
+    return [name for name, keep in zip(spec.joint_names, finite) if keep] or list(spec.joint_names)
+
+
+def _plot_joint(ax, runs: Sequence[Run], labels: Sequence[str], signal: str, j: int) -> None:
+    joint = runs[0].spec.joints[j]
+    what, scale, unit_r, unit_p = _DISPLAY.get(signal, (signal, 1.0, "", ""))
+    for k, (run, label) in enumerate(zip(runs, labels)):
+        if signal not in run:
+            raise PlotError(f"run {run.label!r} has no signal {signal!r}; it has {', '.join(run)}")
+        values = np.asarray(run[signal], dtype=float)[:, j] * scale
+        draw = ax.step if signal == "mode" else ax.plot
+        draw(run.t, values, color=f"C{k}", label=label, **({"where": "post"} if signal == "mode" else {}))
+    unit = unit_p if joint.prismatic else unit_r
+    ax.set_title(f"{joint.name}: {what}")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel(f"{what} [{unit}]" if unit else what)
+    if signal == "mode":
+        ax.set_yticks([m.value for m in FrictionMode], [m.name for m in FrictionMode])
+
+
+def _plot_path(fig: Figure, row_axes: np.ndarray, runs: Sequence[Run], labels: Sequence[str]) -> None:
+    """End-effector path projected on the two base axes along which it moves most."""
+    for ax in row_axes[1:]:
+        fig.delaxes(ax)
+    ax = row_axes[0]
+    paths = [np.asarray(run["ee_pos"], dtype=float) for run in runs]
+    extent = np.ptp(np.vstack(paths), axis=0)
+    a, b = sorted(np.argsort(extent)[-2:])
+    for k, (path, label) in enumerate(zip(paths, labels)):
+        ax.plot(path[:, a], path[:, b], color=f"C{k}", label=label)
+        ax.plot(path[-1, a], path[-1, b], "o", color=f"C{k}", markersize=3)
+    ax.set_title("end-effector path")
+    ax.set_xlabel(f"{'xyz'[a]} [m]")
+    ax.set_ylabel(f"{'xyz'[b]} [m]")
+    ax.set_aspect("equal", adjustable="datalim")
+
+
+def save_figure(fig: Figure, path: str | os.PathLike[str]) -> Path:
+    """Save as PNG, SVG or PDF (by suffix) through a temporary file."""
+    path = Path(path)
+    fmt = path.suffix.lower().lstrip(".")
+    if fmt not in ("png", "svg", "pdf"):
+        raise PlotError(f"{path}: unknown figure format {fmt!r}; expected .png, .svg or .pdf")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.tmp")
+    try:
+        with matplotlib.rc_context(_STYLE):
+            fig.savefig(tmp, format=fmt)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return path
