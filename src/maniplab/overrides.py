@@ -19,11 +19,15 @@ from maniplab import specfile
 from maniplab.errors import SpecError
 from maniplab.spec import (
     Body,
+    CartesianGains,
+    ControlSpec,
     EndEffector,
     Friction,
     HydraulicActuator,
     Joint,
+    JointPIDGains,
     ManipulatorSpec,
+    PressureGains,
     TorqueActuator,
 )
 
@@ -31,6 +35,11 @@ _SECTIONS: dict[tuple[type, str], type] = {
     (ManipulatorSpec, "end_effector"): EndEffector,
     (Joint, "body"): Body,
     (Joint, "friction"): Friction,
+    (ManipulatorSpec, "control"): ControlSpec,
+    (ControlSpec, "position"): CartesianGains,
+    (ControlSpec, "orientation"): CartesianGains,
+    (ControlSpec, "pressure"): PressureGains,
+    (ControlSpec, "pid_only"): JointPIDGains,
 }
 _ACTUATORS: dict[str, type] = {"torque": TorqueActuator, "hydraulic": HydraulicActuator}
 

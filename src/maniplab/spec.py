@@ -29,6 +29,7 @@ hydraulic.bulk_modulus     1.4e9 Pa (mineral oil); .leakage 0; .valve_tau 0.01 s
 friction.*                 0 (stribeck_velocity 0.01 m/s or rad/s, stick_velocity 1e-3,
                            sigma0 1e5, sigma1 316.2)
 end_effector               mass 0 kg, offset [0, 0, 0] m, size derived from the mass (visual only)
+control                    none: the controller's defaults (see ControlSpec)
 =========================  ===================================================================
 
 Numbers may be written as integers or floats (``1e-11`` is a float); booleans, text, NaN and
@@ -383,6 +384,91 @@ class EndEffector:
         return np.full(3, max((self.mass / 2400.0) ** (1.0 / 3.0), 0.05))
 
 
+@dataclass(frozen=True, config=_CONFIG)
+class CartesianGains:
+    """Gains of the outer Cartesian PID on one group of task rows (position or orientation).
+
+    With feedback linearisation each task coordinate obeys ë + kd ė + kp e + ki ∫e = 0.
+
+    Attributes:
+        kp: 1/s².  ki: 1/s³.  kd: 1/s.
+    """
+
+    kp: NonNegative
+    ki: NonNegative = 0.0
+    kd: NonNegative = 0.0
+
+
+@dataclass(frozen=True, config=_CONFIG)
+class PressureGains:
+    """Gains of the inner pressure loop (the same on every hydraulic joint, scaled by V/E).
+
+    Attributes:
+        bandwidth: ω_P, rad/s: Kp_P = ω_P V/E.
+        integral: ω_I, 1/s: Ki_P = ω_I Kp_P (0 for none).
+        speed_gain: k_v, dimensionless: flow k_v A (q̇_ref - q̇) from the speed error.
+        rate_filter: time constant of the dΔP_d/dt filter, s.
+    """
+
+    bandwidth: Positive = 40.0
+    integral: NonNegative = 0.0
+    speed_gain: NonNegative = 0.0
+    rate_filter: NonNegative = 0.01
+
+
+@dataclass(frozen=True, config=_CONFIG)
+class JointPIDGains:
+    """Gains of the PID-only baseline (no feedback linearisation), per joint.
+
+    The PID output is a joint speed (rad/s or m/s) turned into valve current through the valve's
+    no-load gain, i_v = u A / C; on a torque joint the output is scaled by the diagonal of M(q).
+
+    Attributes:
+        kp: 1/s.  ki: 1/s².  kd: dimensionless.
+    """
+
+    kp: NonNegative = 4.0
+    ki: NonNegative = 2.0
+    kd: NonNegative = 0.0
+
+
+@dataclass(frozen=True, config=_CONFIG)
+class ControlSpec:
+    """The cascade controller's settings (the spec file's optional ``control:`` section).
+
+    Attributes:
+        rate: controller sample rate, Hz.
+        task: "position" (3 task rows) or "pose" (6); None: pose for arms with >= 6 joints.
+        position: outer-loop gains on the position rows.
+        orientation: outer-loop gains on the orientation rows.
+        derivative_filter: time constant of the outer loop's derivative filter, s.
+        dls_damping: largest damping λ of the damped least squares (units of σ(J)).
+        dls_threshold: smallest singular value of J below which the damping starts.
+        null_damping: joint damping in the task's null space (redundant arms), 1/s.
+        capacity_weighting: share the motion among the joints in proportion to their top speed
+            (weighted least squares, weights C i_max / A of each hydraulic joint).
+        coulomb_feedforward: add Fc tanh(q̇_ref / v_s) to G1's inverse dynamics.
+        valve_min_root: floor of sqrt(1 - |ΔP|/Ps) in G2's valve inversion.
+        pressure: inner-loop gains.
+        pid_only: gains of the PID-only baseline.
+    """
+
+    rate: Positive = 1000.0
+    task: Literal["position", "pose"] | None = None
+    position: CartesianGains = CartesianGains(kp=400.0, ki=1000.0, kd=40.0)
+    orientation: CartesianGains = CartesianGains(kp=400.0, ki=1000.0, kd=40.0)
+    derivative_filter: NonNegative = 0.0
+    dls_damping: NonNegative = 0.05
+    dls_threshold: NonNegative = 0.05
+    null_damping: NonNegative = 5.0
+    capacity_weighting: Annotated[bool, Strict()] = True
+    coulomb_feedforward: Annotated[bool, Strict()] = False
+    valve_min_root: Annotated[float, Strict(), Field(gt=0.0, le=1.0),
+                              BeforeValidator(_number)] = 0.05
+    pressure: PressureGains = PressureGains()
+    pid_only: JointPIDGains = JointPIDGains()
+
+
 @dataclass(frozen=True, config=_CONFIG, kw_only=True)
 class ManipulatorSpec:
     """A serial manipulator, base to end-effector, one joint per degree of freedom.
@@ -392,6 +478,7 @@ class ManipulatorSpec:
         gravity: gravity vector in base axes, m/s², shape (3,).
         joints: the joints in order from the base; MuJoCo's qpos order.
         end_effector: the payload.
+        control: the cascade controller's settings, or None for the defaults.
         source: the file the spec was read from (for messages; not part of the spec's value).
     """
 
@@ -399,6 +486,7 @@ class ManipulatorSpec:
     gravity: Vec3 = (0.0, 0.0, -9.81)
     joints: Annotated[tuple[Joint, ...], Field(min_length=1), BeforeValidator(_sequence)]
     end_effector: EndEffector = EndEffector()
+    control: ControlSpec | None = None
     source: str | None = dataclasses.field(default=None, compare=False, repr=False)
 
     @field_validator("name")
@@ -478,7 +566,8 @@ class ManipulatorSpec:
 
 
 def _drop_source(items: list[tuple[str, Any]]) -> dict[str, Any]:
-    return {k: v for k, v in items if k != "source"}
+    """Leave out ``source`` (not part of the value) and an absent ``control`` section."""
+    return {k: v for k, v in items if k != "source" and not (k == "control" and v is None)}
 
 
 def _plain(value: Any) -> Any:

@@ -178,7 +178,7 @@ def write_atomic(path: Path, text: str) -> None:
 # --- validation ------------------------------------------------------------------------------
 
 _ADAPTER = TypeAdapter(_spec.ManipulatorSpec)
-_TOP_KEYS = ("name", "gravity", "joints", "end_effector")
+_TOP_KEYS = ("name", "gravity", "joints", "end_effector", "control")
 
 
 def spec_from_dict(
@@ -402,11 +402,17 @@ def _problem(error: Any, loc: Loc, siblings: list[str]) -> str:  # noqa: C901, P
         elif isinstance(value, str) and re.match(r"\s*[-+]?\.?[0-9]", value):
             hint = "; write a plain number in SI units (m, kg, rad, N, Pa, m³/s)"
         return f"expected a number, got {_describe(value)}{hint}"
+    if kind in ("bool_type", "bool_parsing"):
+        return f"expected true or false, got {_describe(value)}"
     if kind == "finite_number":
         return f"expected a finite number, got {_describe(value)}"
     if kind in ("greater_than_equal", "greater_than"):
         bound = ctx.get("ge", ctx.get("gt"))
         sign = ">=" if kind == "greater_than_equal" else ">"
+        return f"expected a number {sign} {bound:g}, got {_describe(value)}"
+    if kind in ("less_than_equal", "less_than"):
+        bound = ctx.get("le", ctx.get("lt"))
+        sign = "<=" if kind == "less_than_equal" else "<"
         return f"expected a number {sign} {bound:g}, got {_describe(value)}"
     if kind == "enum":
         choices = _ENUM_CHOICES.get(str(leaf), [])
@@ -458,6 +464,11 @@ _SECTION_EXAMPLES = {
     "friction": "model: hybrid, coulomb: 100.0",
     "body": "length: 1.0, mass: 10.0",
     "end_effector": "mass: 500.0",
+    "control": "rate: 1000.0, position: {kp: 400.0, kd: 40.0}",
+    "position": "kp: 400.0, ki: 1000.0, kd: 40.0",
+    "orientation": "kp: 400.0, ki: 1000.0, kd: 40.0",
+    "pressure": "bandwidth: 40.0",
+    "pid_only": "kp: 4.0, ki: 2.0",
 }
 
 
@@ -472,6 +483,11 @@ _CHILD_TYPES: dict[tuple[type, str], type] = {
     (_spec.ManipulatorSpec, "end_effector"): _spec.EndEffector,
     (_spec.Joint, "body"): _spec.Body,
     (_spec.Joint, "friction"): _spec.Friction,
+    (_spec.ManipulatorSpec, "control"): _spec.ControlSpec,
+    (_spec.ControlSpec, "position"): _spec.CartesianGains,
+    (_spec.ControlSpec, "orientation"): _spec.CartesianGains,
+    (_spec.ControlSpec, "pressure"): _spec.PressureGains,
+    (_spec.ControlSpec, "pid_only"): _spec.JointPIDGains,
 }
 
 

@@ -1,0 +1,56 @@
+"""G1: inverse dynamics from the analytic model, and the domain transformation to ΔP_d.
+
+τ_d = M(q) q̈_d + C(q, q̇) q̇ + G(q) + Fv q̇ (+ optional Coulomb feed-forward), then per joint
+ΔP_d = τ_d / A at a hydraulic joint (joint force = A ΔP, eq. 4); a torque joint gets τ_d itself.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from maniplab.control.actuation import ActuatorArrays
+from maniplab.model import AnalyticModel
+
+ArrayLike = Any
+
+
+class InverseDynamics:
+    """G1: the joint forces that produce q̈_d, from the controller's model of the arm.
+
+    Args:
+        model: the analytic model (its masses and payload are the controller's *estimates*).
+        coulomb: add the Coulomb friction feed-forward Fc tanh(q̇_ref / v_s) (Fc and v_s, the
+            Stribeck velocity, from the spec's hybrid/LuGre friction); default off, as in the
+            paper's G1.
+    """
+
+    def __init__(self, model: AnalyticModel, *, coulomb: bool = False) -> None:
+        self.model = model
+        joints = model.spec.joints
+        self.fv = np.array([j.friction.viscous for j in joints], dtype=float)
+        has = np.array([j.friction.model.value != "none" for j in joints])
+        self.fc = np.where(has, [j.friction.coulomb for j in joints], 0.0) if coulomb else np.zeros(
+            len(joints))
+        self.vs = np.array([j.friction.stribeck_velocity for j in joints], dtype=float)
+
+    def torque(self, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike,
+               qd_ref: ArrayLike | None = None) -> np.ndarray:
+        """τ_d = M q̈ + C q̇ + G + Fv q̇ (+ Fc tanh(q̇_ref/v_s)), shape (n,), N·m or N.
+
+        Args:
+            q: joint positions, (n,). qd: joint velocities, (n,). qdd: desired accelerations, (n,).
+            qd_ref: the reference velocity for the Coulomb feed-forward (default ``qd``).
+        """
+        M, b = self.model.mass_and_bias(q, qd)
+        tau = M @ np.asarray(qdd, dtype=float) + b + self.fv * np.asarray(qd, dtype=float)
+        if self.fc.any():
+            v = np.asarray(qd if qd_ref is None else qd_ref, dtype=float)
+            tau += self.fc * np.tanh(v / self.vs)
+        return tau
+
+
+def to_pressure(tau: ArrayLike, actuators: ActuatorArrays) -> np.ndarray:
+    """Domain transformation: ΔP_d = τ / A at hydraulic joints (Pa), NaN at torque joints, (n,)."""
+    return np.where(actuators.hydraulic, np.asarray(tau, dtype=float) / actuators.area, np.nan)
