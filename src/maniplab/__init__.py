@@ -30,6 +30,7 @@ from maniplab.spec import (
     TorqueActuator,
 )
 from maniplab.specfile import load_spec
+from maniplab.viz import render, write_video
 
 try:
     __version__ = version("maniplab")
@@ -56,6 +57,8 @@ __all__ = [
     "builtin_spec",
     "builtin_specs",
     "load_spec",
+    "render",
     "resolve_spec",
     "to_mjcf",
+    "write_video",
 ]

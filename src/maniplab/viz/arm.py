@@ -1,0 +1,101 @@
+"""One arm in a scene: its model and data, posed at a frame's joint positions and coloured by state."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from maniplab.mjcf_gen import build_mjspec, names
+from maniplab.spec import ManipulatorSpec
+from maniplab.viz import palette
+from maniplab.viz.gl import RenderError
+
+AUTO_CAMERA = "maniplab_auto"
+"""Name of the fixed camera added to every rendered model and placed by the automatic framing."""
+
+_NO_OBJECT = -1
+_GHOST_GROWTH = 1.01  # ghosts are drawn this much larger: where they coincide with the solid arm
+# (the base joint), equal depths would otherwise speckle
+
+
+class ArmView:
+    """The MuJoCo model of a spec with one pose, drawn into scenes.
+
+    The model is the one :func:`~maniplab.build_model` makes, plus a fixed world camera
+    :data:`AUTO_CAMERA` that :mod:`maniplab.viz.camera` places.
+
+    Args:
+        spec: the arm.
+    """
+
+    def __init__(self, spec: ManipulatorSpec) -> None:
+        self.spec = spec
+        mjspec = build_mjspec(spec)
+        mjspec.worldbody.add_camera(name=AUTO_CAMERA, mode=mujoco.mjtCamLight.mjCAMLIGHT_FIXED)
+        self.model = mjspec.compile()
+        self.data = mujoco.MjData(self.model)
+        self.end_effector = self.model.site(names.END_EFFECTOR).id
+        self._link_of = np.full(self.model.ngeom, _NO_OBJECT)
+        self._joint_of = np.full(self.model.ngeom, _NO_OBJECT)
+        for j, joint in enumerate(spec.joints):
+            for table, name in ((self._link_of, names.link_geom_name(joint.name)),
+                                (self._joint_of, names.joint_geom_name(joint.name))):
+                geom = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_GEOM, name)
+                if geom >= 0:
+                    table[geom] = j
+
+    def camera_id(self, name: str) -> int:
+        """Id of the model camera ``name``; raises RenderError listing the cameras when unknown."""
+        camera = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_CAMERA, name)
+        if camera < 0:
+            known = [self.model.camera(i).name for i in range(self.model.ncam)]
+            known = [n for n in known if n != AUTO_CAMERA]
+            raise RenderError(f"unknown camera '{name}'; expected auto or one of the model's: "
+                              f"{', '.join(known)}")
+        return camera
+
+    def pose(self, q: np.ndarray) -> None:
+        """Place the arm at joint positions ``q`` (shape (n,), rad or m): bodies, sites, cameras."""
+        self.data.qpos[:] = q
+        mujoco.mj_kinematics(self.model, self.data)
+        mujoco.mj_comPos(self.model, self.data)  # the tracking camera follows the subtree COM
+        mujoco.mj_camlight(self.model, self.data)
+
+    @property
+    def end_effector_position(self) -> np.ndarray:
+        """Position of the end-effector site in the current pose, m, shape (3,)."""
+        return self.data.site_xpos[self.end_effector].copy()
+
+    def colour(self, scene: mujoco.MjvScene, start: int, modes: np.ndarray,
+               tint: palette.RGBA | None = None) -> None:
+        """Colour this arm's geoms among ``scene.geoms[start:]``: links per index, joints per mode.
+
+        Args:
+            scene: a scene this arm's geoms were just added to.
+            start: index of the first of them.
+            modes: :class:`FrictionMode` per joint, shape (n,).
+            tint: draw the whole arm in this colour, translucent (a ghost), joint states excepted.
+        """
+        for i in range(start, scene.ngeom):
+            geom = scene.geoms[i]
+            if geom.objtype != mujoco.mjtObj.mjOBJ_GEOM:
+                continue
+            rgba = self._rgba(geom.objid, modes, tint)
+            if rgba is not None:
+                geom.rgba[:] = rgba
+            if tint is not None:
+                geom.rgba[3] = palette.GHOST_ALPHA
+                geom.transparent = 1
+                geom.castshadow = 0
+                geom.size[:] = geom.size * _GHOST_GROWTH
+
+    def _rgba(self, geom: int, modes: np.ndarray, tint: palette.RGBA | None) -> palette.RGBA | None:
+        joint = self._joint_of[geom]
+        if joint != _NO_OBJECT:
+            state = palette.JOINT_STATES.get(int(modes[joint]))  # type: ignore[call-overload]
+            if state is not None:
+                return state
+        if tint is not None:
+            return tint
+        link = self._link_of[geom]
+        return palette.link_colour(int(link)) if link != _NO_OBJECT else None
