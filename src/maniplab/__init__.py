@@ -14,12 +14,15 @@ from __future__ import annotations
 from importlib.metadata import PackageNotFoundError, version
 
 from maniplab.builtin import builtin_spec, builtin_specs, resolve_spec
+from maniplab.control import CascadeController, MinJerkMove, Path, Pose, segment_placement
+from maniplab.control.linearize import linearize
 from maniplab.errors import ManiplabError, ModelError, SpecError
 from maniplab.mjcf_gen import build_model, to_mjcf
 from maniplab.model import AnalyticModel
 from maniplab.spec import (
     Axis,
     Body,
+    ControlSpec,
     EndEffector,
     Friction,
     FrictionModel,
@@ -41,6 +44,8 @@ __all__ = [
     "AnalyticModel",
     "Axis",
     "Body",
+    "CascadeController",
+    "ControlSpec",
     "EndEffector",
     "Friction",
     "FrictionModel",
@@ -49,16 +54,21 @@ __all__ = [
     "JointType",
     "ManipulatorSpec",
     "ManiplabError",
+    "MinJerkMove",
     "ModelError",
+    "Path",
+    "Pose",
     "SpecError",
     "TorqueActuator",
     "__version__",
     "build_model",
     "builtin_spec",
     "builtin_specs",
+    "linearize",
     "load_spec",
     "render",
     "resolve_spec",
+    "segment_placement",
     "to_mjcf",
     "write_video",
 ]

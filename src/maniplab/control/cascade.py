@@ -24,7 +24,7 @@ import numpy as np
 
 from maniplab.control.actuation import ActuatorArrays
 from maniplab.control.inverse_dynamics import InverseDynamics
-from maniplab.control.kinematics import DampedLeastSquares, Kinematics, matrix_to_rpy, pose_error
+from maniplab.control.kinematics import DampedLeastSquares, Kinematics, matrix_to_rpy, rotation_log
 from maniplab.control.pid import PID
 from maniplab.control.pressure import PressureLoop
 from maniplab.control.trajectory import Trajectory
@@ -38,7 +38,7 @@ MODES = ("cascade", "pid")
 LOG_SIGNALS: dict[str, tuple[str, str]] = {
     "x_d": ("reference pose [x, y, z, roll, pitch, yaw]", "m | rad"),
     "x": ("pose from the joint sensors (G3) [x, y, z, roll, pitch, yaw]", "m | rad"),
-    "e_x": ("pose error [p_d - p; rotation vector of R_d Rᵀ]", "m | rad"),
+    "e_x": ("task error [p_d - p; rotation vector of R_d Rᵀ] (NaN off the task rows)", "m | rad"),
     "a_x": ("outer-loop Cartesian acceleration (6; NaN off the task rows)", "m/s² | rad/s²"),
     "qdd_d": ("desired joint accelerations", "rad/s² | m/s²"),
     "tau_d": ("G1 joint forces", "N·m | N"),
@@ -83,6 +83,7 @@ class CascadeController:
         if settings:
             gains = dataclasses.replace(gains, **settings)
         self.spec, self.trajectory, self.gains, self.mode = spec, trajectory, gains, mode
+        self.n = spec.n
         self.model = model or AnalyticModel(spec)
         self.kin = Kinematics(self.model)
         self.act = ActuatorArrays.from_spec(spec)
@@ -95,7 +96,7 @@ class CascadeController:
         self.reset()
 
     def _build_loops(self) -> None:
-        g, m, n = self.gains, len(self.rows), self.spec.n
+        g, m, n = self.gains, len(self.rows), self.n
         pos, ori = g.position, g.orientation
         pick = lambda a, b: np.array([a] * 3 + [b] * 3)[:m]  # noqa: E731
         self.outer = PID(pick(pos.kp, ori.kp), pick(pos.ki, ori.ki), pick(pos.kd, ori.kd),
@@ -130,7 +131,7 @@ class CascadeController:
         self.pressure.reset()
         self.joint_pid.reset()
         self._next = -math.inf
-        self._command = np.zeros(self.spec.n)
+        self._command = np.zeros(self.n)
         self._saturated = False
         self._log: dict[str, list[np.ndarray]] = {k: [] for k in ("t", *LOG_SIGNALS)}
 
@@ -150,7 +151,7 @@ class CascadeController:
             raise TypeError("the controller needs a state with fields q and qd (and dP)")
         dP = _read(state, "dP")
         if dP is None:
-            dP = np.zeros(self.spec.n)
+            dP = np.zeros(self.n)
         self._command = self.step(t, q, qd, dP)
         return self._command
 
@@ -160,40 +161,49 @@ class CascadeController:
         p, R = self.kin.pose(q)
         J = self.kin.jacobian(q)
         rows = self.rows
-        e = pose_error(ref.position, ref.rotation, p, R)
-        de = ref.twist - J @ qd
-        Js = J[rows]
+        m = len(rows)
+        e = np.full(6, np.nan)  # logged; the orientation part only on a pose task
+        e[:3] = ref.position - p
+        if m == 6:
+            e[3:] = rotation_log(ref.rotation @ R.T)
+        Js = J[:m]
+        de = ref.twist[:m] - Js @ qd
         dls = DampedLeastSquares(Js, damping=self.gains.dls_damping,
                                  threshold=self.gains.dls_threshold, weights=self.weights)
         if self.mode == "pid":
-            cmd, log = self._pid_only(q, dls, e[rows], de[rows])
+            cmd, log = self._pid_only(q, dls, e[:m], de)
         else:
-            cmd, log = self._cascade(q, qd, dP, ref, J, dls, e[rows], de[rows])
+            cmd, log = self._cascade(q, qd, dP, ref, dls, e[:m], de)
         self._record(t, ref, p, R, e, log, cmd)
         return cmd
 
-    def _cascade(self, q: np.ndarray, qd: np.ndarray, dP: np.ndarray, ref: Any, J: np.ndarray,
+    def _cascade(self, q: np.ndarray, qd: np.ndarray, dP: np.ndarray, ref: Any,
                  dls: DampedLeastSquares, e: np.ndarray, de: np.ndarray
                  ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-        rows, act, h = self.rows, self.act, self._h
-        a_x = ref.accel[rows] + self.outer.update(e, de, freeze=self._saturated)
-        bias = self.kin.bias_acceleration(q, qd)[rows]
-        sol = dls.solve(np.stack([a_x - bias, ref.twist[rows]], axis=1))
+        m, act, h = len(self.rows), self.act, self._h
+        a_x = ref.accel[:m] + self.outer.update(e, de, freeze=self._saturated)
+        rhs = np.empty((m, 3))
+        rhs[:, 0] = a_x - self.kin.bias_acceleration(q, qd)[:m]
+        rhs[:, 1] = ref.twist[:m]
+        rhs[:, 2] = dls.J @ qd
+        sol = dls.solve(rhs)
         qdd, qd_ref = sol[:, 0], sol[:, 1]
-        if self._redundant:
-            qdd = qdd - self.gains.null_damping * (dls.null_space() @ qd)
+        if self._redundant:  # null-space damping: (I - J⁺J) q̇ = q̇ - J⁺(J q̇)
+            qdd = qdd - self.gains.null_damping * (qd - sol[:, 2])
         tau = self.g1.torque(q, qd, qdd, qd_ref)
-        cmd = np.clip(tau, -act.torque_limit, act.torque_limit) if self._torque.size else tau
-        dP_d = np.full(self.spec.n, np.nan)
-        phi = np.full(self.spec.n, np.nan)
+        cmd = np.clip(tau, -act.torque_limit, act.torque_limit) if self._torque.size else tau.copy()
+        dP_d = np.full(self.n, np.nan)
+        phi = np.full(self.n, np.nan)
         if h.size:
-            dP_d[h] = tau[h] / self._area
-            phi[h] = self.pressure.flow(dP_d[h], dP[h], qd[h], qd_ref[h])
-            cmd[h] = valve_current(phi[h], dP[h], self._cv, self._ps, self._imax,
+            dPd_h = tau[h] / self._area
+            dP_h = dP[h]
+            phi_h = self.pressure.flow(dPd_h, dP_h, qd[h], qd_ref[h])
+            cmd[h] = valve_current(phi_h, dP_h, self._cv, self._ps, self._imax,
                                    min_root=self.gains.valve_min_root)
-        self._saturated = bool(np.any(np.abs(cmd) >= self._limit))
+            dP_d[h], phi[h] = dPd_h, phi_h
+        self._saturated = bool((np.abs(cmd) >= self._limit).any())
         a_full = np.full(6, np.nan)
-        a_full[rows] = a_x
+        a_full[:m] = a_x
         return cmd, {"a_x": a_full, "qdd_d": qdd, "tau_d": tau, "dP_d": dP_d, "phi": phi}
 
     def _pid_only(self, q: np.ndarray, dls: DampedLeastSquares, e: np.ndarray, de: np.ndarray
@@ -205,7 +215,7 @@ class CascadeController:
         inertia = np.diagonal(self.model.M(q)) if not act.hydraulic.all() else 1.0
         tau = np.clip(u * inertia, -act.torque_limit, act.torque_limit)
         cmd = np.where(act.hydraulic, iv, tau)
-        nan6, nan = np.full(6, np.nan), np.full(self.spec.n, np.nan)
+        nan6, nan = np.full(6, np.nan), np.full(self.n, np.nan)
         return cmd, {"a_x": nan6, "qdd_d": nan, "tau_d": nan, "dP_d": nan, "phi": nan}
 
     # --- the log -----------------------------------------------------------------------------
@@ -227,7 +237,7 @@ class CascadeController:
 
     def signals(self) -> dict[str, np.ndarray]:
         """The logged signals (see ``LOG_SIGNALS``), name -> array (K, k), one row per sample."""
-        n = self.spec.n
+        n = self.n
         width = {"x_d": 6, "x": 6, "e_x": 6, "a_x": 6}
         out = {}
         for k, v in self._log.items():

@@ -50,7 +50,7 @@ class PID:
             raise ValueError(f"dt must be > 0, got {dt!r}")
         if filter_time < 0.0:
             raise ValueError(f"filter_time must be >= 0, got {filter_time!r}")
-        m = size or max(np.size(kp), np.size(ki), np.size(kd), 1)
+        m = size if size is not None else max(np.size(kp), np.size(ki), np.size(kd), 1)
         self.kp = np.broadcast_to(np.asarray(kp, dtype=float), (m,)).copy()
         self.ki = np.broadcast_to(np.asarray(ki, dtype=float), (m,)).copy()
         self.kd = np.broadcast_to(np.asarray(kd, dtype=float), (m,)).copy()

@@ -74,27 +74,42 @@ class Reference:
     """The reference at one instant, base axes.
 
     Attributes:
-        position: p_d, m, (3,).  velocity: ṗ_d, m/s, (3,).  acceleration: p̈_d, m/s², (3,).
-        rotation: R_d, (3, 3).  angular_velocity: ω_d, rad/s, (3,).
-        angular_acceleration: ω̇_d, rad/s², (3,).
+        position: p_d, m, (3,).  rotation: R_d, (3, 3).
+        twist: [ṗ_d (m/s); ω_d (rad/s)], (6,).  accel: [p̈_d (m/s²); ω̇_d (rad/s²)], (6,).
     """
 
     position: np.ndarray
-    velocity: np.ndarray
-    acceleration: np.ndarray
     rotation: np.ndarray
-    angular_velocity: np.ndarray
-    angular_acceleration: np.ndarray
+    twist: np.ndarray
+    accel: np.ndarray
+
+    @classmethod
+    def of(cls, position: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray,
+           rotation: np.ndarray, angular_velocity: np.ndarray,
+           angular_acceleration: np.ndarray) -> Reference:
+        """From the six parts (each (3,), rotation (3, 3))."""
+        return cls(position, rotation, np.concatenate([velocity, angular_velocity]),
+                   np.concatenate([acceleration, angular_acceleration]))
 
     @property
-    def twist(self) -> np.ndarray:
-        """[ṗ_d; ω_d], shape (6,)."""
-        return np.concatenate([self.velocity, self.angular_velocity])
+    def velocity(self) -> np.ndarray:
+        """ṗ_d, m/s, (3,)."""
+        return self.twist[:3]
 
     @property
-    def accel(self) -> np.ndarray:
-        """[p̈_d; ω̇_d], shape (6,)."""
-        return np.concatenate([self.acceleration, self.angular_acceleration])
+    def acceleration(self) -> np.ndarray:
+        """p̈_d, m/s², (3,)."""
+        return self.accel[:3]
+
+    @property
+    def angular_velocity(self) -> np.ndarray:
+        """ω_d, rad/s, (3,)."""
+        return self.twist[3:]
+
+    @property
+    def angular_acceleration(self) -> np.ndarray:
+        """ω̇_d, rad/s², (3,)."""
+        return self.accel[3:]
 
     @property
     def pose(self) -> Pose:
@@ -114,8 +129,7 @@ class Trajectory(Protocol):
 
 
 def _at_rest(pose: Pose) -> Reference:
-    z = np.zeros(3)
-    return Reference(pose.position.copy(), z, z.copy(), pose.rotation.copy(), z.copy(), z.copy())
+    return Reference(pose.position.copy(), pose.rotation.copy(), np.zeros(6), np.zeros(6))
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -157,8 +171,10 @@ class MinJerkMove:
     def __post_init__(self) -> None:
         if not self.duration > 0.0:
             raise ValueError(f"duration must be > 0, got {self.duration!r}")
-        object.__setattr__(self, "_dp", self.goal.position - self.start.position)
-        object.__setattr__(self, "_w", rotation_log(self.goal.rotation @ self.start.rotation.T))
+        dp = self.goal.position - self.start.position
+        w = rotation_log(self.goal.rotation @ self.start.rotation.T)
+        object.__setattr__(self, "_w", w)
+        object.__setattr__(self, "_dpw", np.concatenate([dp, w]))
 
     @property
     def end(self) -> Pose:
@@ -169,9 +185,10 @@ class MinJerkMove:
         """The reference at time t, s."""
         T = self.duration
         s, ds, dds = min_jerk((t - self.t0) / T)
-        dp, w = self._dp, self._w  # type: ignore[attr-defined]
-        return Reference(self.start.position + s * dp, ds / T * dp, dds / T**2 * dp,
-                         rotation_exp(s * w) @ self.start.rotation, ds / T * w, dds / T**2 * w)
+        w, dpw = self._w, self._dpw  # type: ignore[attr-defined]
+        R = rotation_exp(s * w) @ self.start.rotation if s and w.any() else self.start.rotation
+        return Reference(self.start.position + s * dpw[:3], R, (ds / T) * dpw,
+                         (dds / T**2) * dpw)
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -221,8 +238,8 @@ class ArcMove:
         r = Rz @ (self.start.position - self.center)
         w, wd = ds / T * self.angle, dds / T**2 * self.angle
         kr = np.cross(k, r)
-        return Reference(self.center + r, w * kr, wd * kr + w * w * np.cross(k, kr),
-                         Rz @ self.start.rotation, w * k, wd * k)
+        return Reference.of(self.center + r, w * kr, wd * kr + w * w * np.cross(k, kr),
+                            Rz @ self.start.rotation, w * k, wd * k)
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
