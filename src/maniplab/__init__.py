@@ -7,6 +7,7 @@ Public API::
     spec2 = spec.with_overrides({"end_effector.mass": 800.0})
     xml = ml.to_mjcf(spec)                   # MJCF text at full float precision
     model = ml.build_model(spec)             # mujoco.MjModel
+    run = ml.simulate(spec, inputs={"q1": ml.signals.step(0.5, t0=0.1)}, duration=2.0)
 """
 
 from __future__ import annotations
@@ -19,6 +20,17 @@ from maniplab.control.linearize import linearize
 from maniplab.errors import ManiplabError, ModelError, SpecError
 from maniplab.mjcf_gen import build_model, to_mjcf
 from maniplab.model import AnalyticModel
+from maniplab.sim import (
+    InputError,
+    InstabilityError,
+    Plant,
+    PlantState,
+    PluginError,
+    Run,
+    SimulationError,
+    signals,
+    simulate,
+)
 from maniplab.spec import (
     Axis,
     Body,
@@ -54,6 +66,13 @@ __all__ = [
     "JointType",
     "ManipulatorSpec",
     "ManiplabError",
+    "InputError",
+    "InstabilityError",
+    "Plant",
+    "PlantState",
+    "PluginError",
+    "Run",
+    "SimulationError",
     "MinJerkMove",
     "ModelError",
     "Path",
@@ -68,6 +87,8 @@ __all__ = [
     "load_spec",
     "render",
     "resolve_spec",
+    "signals",
+    "simulate",
     "segment_placement",
     "to_mjcf",
     "write_video",

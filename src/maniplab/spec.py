@@ -52,8 +52,10 @@ from pydantic import (
     AfterValidator,
     BeforeValidator,
     ConfigDict,
+    Discriminator,
     Field,
     Strict,
+    Tag,
     ValidationError,
     field_validator,
 )
@@ -295,8 +297,76 @@ class HydraulicActuator:
     current_limit: Positive = 1.0
 
 
-Actuator = Annotated[Union[TorqueActuator, HydraulicActuator], Field(discriminator="type")]
 ACTUATOR_TYPES = ("torque", "hydraulic")
+
+
+@dataclasses.dataclass(frozen=True)
+class PluginActuator:
+    """An actuator implemented by a plugin (:class:`maniplab.actuators.ActuatorPlugin`).
+
+    Written in a spec as ``actuator: {type: "mypkg.motors:GearedDCMotor", <parameters>}`` or with a
+    registered name (``type: dcmotor``); the parameters are validated by the plugin's ``Params``.
+
+    Attributes:
+        type: the plugin's name as written in the spec.
+        params: the plugin's validated parameters (an instance of its ``Params``).
+        plugin: the plugin class (not part of the value).
+    """
+
+    type: str
+    params: Any
+    plugin: Any = dataclasses.field(default=None, compare=False, repr=False)
+
+    def to_dict(self) -> dict[str, Any]:
+        """``{"type": ..., <parameters>}`` as written in a spec file."""
+        return {"type": self.type, **_plain(dataclasses.asdict(self.params))}
+
+
+def _plugin_actuator(value: Any) -> Any:
+    """Validate a mapping whose ``type`` is not a built-in actuator as a plugin actuator."""
+    if not isinstance(value, (Mapping, TorqueActuator, HydraulicActuator, PluginActuator)):
+        raise PydanticCustomError("dict_type", "Input should be a valid dictionary")
+    if not (isinstance(value, Mapping) and isinstance(value.get("type"), str)):
+        return value
+    name = value["type"]
+    if name in ACTUATOR_TYPES:
+        return value
+    from maniplab.actuators import plugin as _plugin
+    from maniplab.specfile import plugin_problem
+
+    try:
+        return _plugin.validate(value)
+    except _plugin.PluginLookupError as exc:
+        if ":" not in name and "no actuator plugin named" in str(exc):
+            raise PydanticCustomError(
+                "union_tag_invalid", "unknown actuator type {tag}", {"tag": name}
+            ) from None
+        raise PydanticCustomError(
+            "plugin_problem", "{problem}", {"problem": str(exc), "field": "type"}
+        ) from None
+    except ValidationError as exc:
+        field, problem = plugin_problem(exc.errors(), _plugin.resolve(name).Params)
+        raise PydanticCustomError(
+            "plugin_problem", "{problem}", {"problem": problem, "field": field}
+        ) from None
+
+
+def _actuator_tag(value: Any) -> Any:
+    if isinstance(value, PluginActuator):
+        return "plugin"
+    tag = value.get("type") if isinstance(value, Mapping) else getattr(value, "type", None)
+    return "plugin?" if tag == "plugin" else tag  # "plugin" is the tag of validated instances
+
+
+Actuator = Annotated[
+    Union[
+        Annotated[TorqueActuator, Tag("torque")],
+        Annotated[HydraulicActuator, Tag("hydraulic")],
+        Annotated[PluginActuator, Tag("plugin")],
+    ],
+    Discriminator(_actuator_tag),
+    BeforeValidator(_plugin_actuator),
+]
 
 
 @dataclass(frozen=True, config=_CONFIG)
@@ -518,7 +588,11 @@ class ManipulatorSpec:
 
     def to_dict(self) -> dict[str, Any]:
         """Plain dict (lists, floats, strings) with every default written out; from_dict inverts it."""
-        return _plain(dataclasses.asdict(self, dict_factory=_drop_source))
+        data = _plain(dataclasses.asdict(self, dict_factory=_drop_source))
+        for joint, joint_data in zip(self.joints, data["joints"]):
+            if isinstance(joint.actuator, PluginActuator):
+                joint_data["actuator"] = joint.actuator.to_dict()
+        return data
 
     def dump(self, path: str) -> None:
         """Write the spec as YAML to ``path`` (atomically); load_spec reads it back equal."""

@@ -287,6 +287,9 @@ def _translate(error: Any, data: Any, source: str | None, lines: dict[Loc, int])
         loc = loc[:-1]
     if kind in ("union_tag_invalid", "union_tag_not_found"):  # the actuator's type is at fault
         loc = (*loc, "type")
+    if kind == "plugin_problem":  # a plugin actuator's type or parameter: ctx names the field
+        field = str((error.get("ctx") or {}).get("field") or "")
+        loc = (*loc, *field.split(".")) if field else loc
     joint = None
     field_loc = loc
     if len(loc) >= 2 and loc[0] == "joints" and isinstance(loc[1], int):
@@ -426,9 +429,11 @@ def _problem(error: Any, loc: Loc, siblings: list[str]) -> str:  # noqa: C901, P
     if kind == "union_tag_invalid":
         tag = ctx.get("tag")
         return (
-            f"unknown actuator type {tag!r}; expected {_choices(_spec.ACTUATOR_TYPES)}"
-            f"{_did_you_mean(tag, _spec.ACTUATOR_TYPES)}"
+            f"unknown actuator type {tag!r}; expected {_choices(_spec.ACTUATOR_TYPES)}, or a "
+            f"plugin as 'module:Class' or a registered name{_did_you_mean(tag, _spec.ACTUATOR_TYPES)}"
         )
+    if kind == "plugin_problem":
+        return str(ctx.get("problem"))
     if kind == "union_tag_not_found":
         types = " or ".join(f"'type: {t}'" for t in _spec.ACTUATOR_TYPES)
         return f"missing key 'type'; expected {types}"
@@ -470,6 +475,22 @@ _SECTION_EXAMPLES = {
     "pressure": "bandwidth: 40.0",
     "pid_only": "kp: 4.0, ki: 2.0",
 }
+
+
+def plugin_problem(errors: list[Any], params: type) -> tuple[str, str]:
+    """(field, problem) for the validation errors of an actuator plugin's ``Params`` dataclass.
+
+    The field is dotted and relative to the actuator (``resistance``), the problem is phrased as
+    for the spec's own fields.
+    """
+    valid = [f.name for f in _spec.dataclasses.fields(params)]
+    error = errors[0]
+    if error["type"] == "missing":
+        error = next((e for e in errors if e["type"] in _UNKNOWN_KEY), error)
+    loc = tuple(error["loc"])
+    if error["type"] in _UNKNOWN_KEY:
+        return _dotted(loc), unknown_key_problem(str(loc[-1]), valid)
+    return _dotted(loc), _problem(error, loc, valid)
 
 
 def unknown_key_problem(key: str, valid: typing.Sequence[str]) -> str:

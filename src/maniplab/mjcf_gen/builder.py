@@ -41,6 +41,7 @@ from maniplab.spec import (
     HydraulicActuator,
     Joint,
     ManipulatorSpec,
+    PluginActuator,
     inertia_matrix,
 )
 
@@ -183,13 +184,16 @@ def _add_actuator(s: mujoco.MjSpec, joint: Joint) -> None:
     """
     act = s.add_actuator(name=joint.name, target=joint.name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
     spec = joint.actuator
+    limit: float | None
     if isinstance(spec, HydraulicActuator):
         act.dyntype = mujoco.mjtDyn.mjDYN_USER
         act.gaintype = mujoco.mjtGain.mjGAIN_USER
         act.biastype = mujoco.mjtBias.mjBIAS_USER
         act.actdim = HYDRAULIC_STATES
         act.actlimited = mujoco.mjtLimited.mjLIMITED_FALSE
-        limit: float | None = spec.current_limit
+        limit = spec.current_limit
+    elif isinstance(spec, PluginActuator):
+        limit = _plugin_actuator(act, spec, joint)
     else:
         limit = spec.limit
     if limit is None:
@@ -197,3 +201,21 @@ def _add_actuator(s: mujoco.MjSpec, joint: Joint) -> None:
     else:
         act.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
         act.ctrlrange = [-limit, limit]
+
+
+def _plugin_actuator(act: mujoco.MjsActuator, spec: PluginActuator, joint: Joint) -> float | None:
+    """A plugin's actuator: one user activation per plugin state, zero gain, user bias (its force).
+
+    Without the plant's callbacks MuJoCo leaves the states constant and applies no force.
+    Returns the plugin's command limit.
+    """
+    model = spec.plugin(spec.params, joint)
+    k = len(model.states)
+    if k:
+        act.dyntype = mujoco.mjtDyn.mjDYN_USER
+        act.actdim = k
+        act.actlimited = mujoco.mjtLimited.mjLIMITED_FALSE
+    act.gaintype = mujoco.mjtGain.mjGAIN_FIXED
+    act.gainprm = [0.0] * 10
+    act.biastype = mujoco.mjtBias.mjBIAS_USER
+    return model.command_limit

@@ -1,0 +1,137 @@
+"""MuJoCo actuator callbacks for plugin actuators, installed only while their plant steps.
+
+MuJoCo's ``mjcb_act_dyn`` and ``mjcb_act_bias`` are process-global. A plant whose actuators run on
+the callback route (plugins, or every actuator with ``Plant(..., route="callbacks")``) installs its
+own pair inside :func:`installed`, which:
+
+- holds a process-wide re-entrant lock, so plants in different threads never see each other's
+  callbacks (they take turns) while a plant may still step another one from inside its own
+  controller (the inner scope installs the inner plant's pair and gives the outer one back);
+- restores whatever was installed before, also when the step raises.
+
+The callbacks answer only for their own plant's model and data; for any other model they behave
+as if no callback were installed (zero activation derivatives, zero user bias), so states of two
+plants never mix. A plant on the native route uses no callbacks at all.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import threading
+from collections.abc import Iterator, Sequence
+
+import mujoco
+import numpy as np
+
+from maniplab.actuators.plugin import ActuatorPlugin
+from maniplab.sim.errors import PluginError
+
+_LOCK = threading.RLock()
+
+
+@contextlib.contextmanager
+def installed(callbacks: PluginCallbacks) -> Iterator[None]:
+    """Install ``callbacks`` as MuJoCo's act_dyn/act_bias for the block; restore the previous ones."""
+    with _LOCK:
+        previous = (mujoco.get_mjcb_act_dyn(), mujoco.get_mjcb_act_bias())
+        mujoco.set_mjcb_act_dyn(callbacks.act_dyn)
+        mujoco.set_mjcb_act_bias(callbacks.act_bias)
+        try:
+            yield
+        finally:
+            mujoco.set_mjcb_act_dyn(previous[0])
+            mujoco.set_mjcb_act_bias(previous[1])
+
+
+@contextlib.contextmanager
+def suspended() -> Iterator[None]:
+    """No actuator callbacks for the block (restored after it).
+
+    MuJoCo calls the callbacks while compiling a model (to compute its constants), when the
+    Python bindings cannot hand them the model yet; so models are compiled without any.
+    """
+    with _LOCK:
+        previous = (mujoco.get_mjcb_act_dyn(), mujoco.get_mjcb_act_bias())
+        mujoco.set_mjcb_act_dyn(None)
+        mujoco.set_mjcb_act_bias(None)
+        try:
+            yield
+        finally:
+            mujoco.set_mjcb_act_dyn(previous[0])
+            mujoco.set_mjcb_act_bias(previous[1])
+
+
+@dataclasses.dataclass(frozen=True)
+class _Entry:
+    plugin: ActuatorPlugin
+    joint: int      # qpos/qvel index of the joint (one dof per joint)
+    adr: int        # first activation
+    k: int          # number of activations
+
+
+class PluginCallbacks:
+    """The act_dyn and act_bias callbacks of one plant's callback-route actuators.
+
+    Args:
+        model, data: the plant's.
+        actuators: (actuator id, plugin, joint index) for each callback-route actuator.
+    """
+
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData,
+                 actuators: Sequence[tuple[int, ActuatorPlugin, int]]) -> None:
+        self.model = model
+        self.data = data
+        self._entries = {
+            i: _Entry(p, j, int(model.actuator_actadr[i]), int(model.actuator_actnum[i]))
+            for i, p, j in actuators
+        }
+
+    def _entry(self, m: mujoco.MjModel, d: mujoco.MjData, i: int) -> _Entry | None:
+        if m is not self.model or d is not self.data:
+            return None
+        return self._entries.get(i)
+
+    def act_dyn(self, m: mujoco.MjModel, d: mujoco.MjData, i: int) -> float:
+        """MuJoCo's mjcb_act_dyn: writes the states' derivatives (returns the one of a 1-state)."""
+        e = self._entry(m, d, i)
+        if e is None or e.k == 0:
+            return 0.0
+        x = d.act[e.adr:e.adr + e.k]
+        try:
+            xdot = np.asarray(e.plugin.derivatives(x, d.ctrl[i], d.qpos[e.joint], d.qvel[e.joint]),
+                              dtype=float)
+        except Exception as exc:  # noqa: BLE001 - reported with the joint and time
+            raise self._failure(e, "derivatives", exc, d.time) from exc
+        if xdot.shape != (e.k,):
+            raise PluginError(f"{_name(e)}.derivatives returned shape {xdot.shape}; expected ({e.k},)")
+        if e.k == 1:
+            return float(xdot[0])
+        d.act_dot[e.adr:e.adr + e.k] = xdot
+        return 0.0
+
+    def act_bias(self, m: mujoco.MjModel, d: mujoco.MjData, i: int) -> float:
+        """MuJoCo's mjcb_act_bias: the plugin's force (the actuator's gain is zero)."""
+        e = self._entry(m, d, i)
+        if e is None:
+            return 0.0
+        x = d.act[e.adr:e.adr + e.k] if e.k else _EMPTY
+        try:
+            return float(e.plugin.force(x, d.ctrl[i], d.qpos[e.joint], d.qvel[e.joint]))
+        except Exception as exc:  # noqa: BLE001 - reported with the joint and time
+            raise self._failure(e, "force", exc, d.time) from exc
+
+    @staticmethod
+    def _failure(e: _Entry, method: str, exc: Exception, t: float) -> PluginError:
+        return PluginError(
+            f"actuator plugin {_name(e)} of joint {e.plugin.joint.name} failed in {method}() at "
+            f"t = {t:.6g} s: {type(exc).__name__}: {exc}"
+        )
+
+
+_EMPTY = np.zeros(0)
+
+
+def _name(e: _Entry) -> str:
+    cls = type(e.plugin)
+    return f"{cls.__module__}:{cls.__qualname__}"

@@ -1,0 +1,100 @@
+"""The plant's MuJoCo model: the spec's arm (``mjcf_gen``) plus what the plant's scheme needs.
+
+Changes to the arm's model, all made on the MjSpec before compiling:
+
+- MuJoCo's own joint-limit constraints and its auto-reset on bad accelerations are disabled
+  (the limit automaton holds joints at their limits; a NaN must reach the instability check);
+- viscous friction (``friction.viscous``, LuGre's σ2) becomes the joint's damping, so MuJoCo
+  integrates it inside the step;
+- a hydraulic actuator on the native route gets a fixed zero gain and an affine bias
+  ``b0 - k q`` (k = A²E/V, b0 set before every step; see
+  :class:`~maniplab.actuators.hydraulic.HydraulicBank`); its user dynamics keep ΔP and Q in
+  ``d.act`` untouched by MuJoCo's integrator;
+- an actuator on the callback route (plugins) gets one user activation per state, a zero gain
+  and a user bias: MuJoCo integrates its states and asks for its force through the plant's
+  callbacks (:mod:`maniplab.sim.callbacks`);
+- each LuGre joint gets an extra force-less actuator ``<joint>/lugre`` with one user activation,
+  the bristle state z (``/`` cannot occur in a joint name, so the name is free).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import mujoco
+
+from maniplab.actuators.hydraulic import HydraulicBank
+from maniplab.mjcf_gen import build_mjspec
+from maniplab.mjcf_gen.checks import check_drives_mass, compile_checked
+from maniplab.sim.callbacks import suspended
+from maniplab.spec import FrictionModel, HydraulicActuator, ManipulatorSpec
+
+LUGRE_SUFFIX = "/lugre"
+"""Name of a LuGre joint's bristle-state actuator: ``<joint>/lugre``."""
+
+_USER = mujoco.mjtDyn.mjDYN_USER
+
+
+def build_plant_model(spec: ManipulatorSpec, *, dt: float, integrator: int,
+                      native: Sequence[bool], states: Sequence[int]) -> mujoco.MjModel:
+    """Compile the plant's model of ``spec``.
+
+    Args:
+        spec: the arm.
+        dt: time step, s.
+        integrator: a ``mujoco.mjtIntegrator`` value.
+        native: per joint, whether its actuator runs on the native route.
+        states: per joint, the number of states of its actuator (callback route).
+
+    Returns:
+        The model; actuator i < n drives joint i, LuGre state actuators follow.
+    """
+    s = build_mjspec(spec)
+    s.option.timestep = dt
+    s.option.integrator = integrator
+    s.option.disableflags |= (mujoco.mjtDisableBit.mjDSBL_LIMIT
+                              | mujoco.mjtDisableBit.mjDSBL_AUTORESET)
+    actuators = {a.name: a for a in s.actuators}
+    joints = {j.name: j for j in s.joints}
+    for joint, is_native, k in zip(spec.joints, native, states):
+        act = actuators[joint.name]
+        if is_native and isinstance(joint.actuator, HydraulicActuator):
+            _affine_cylinder(act, joint.actuator, dt)
+        elif not is_native:
+            _callback_actuator(act, k)
+        if joint.friction.model is not FrictionModel.none:
+            joints[joint.name].damping = [joint.friction.viscous, 0.0, 0.0]
+        if joint.friction.model is FrictionModel.lugre:
+            _add_bristles(s, joint.name)
+    with suspended():
+        model = compile_checked(s, spec)
+    check_drives_mass(model, spec)
+    return model
+
+
+def _affine_cylinder(act: mujoco.MjsActuator, cylinder: HydraulicActuator, dt: float) -> None:
+    act.gaintype = mujoco.mjtGain.mjGAIN_FIXED
+    act.gainprm = [0.0] * 10
+    act.biastype = mujoco.mjtBias.mjBIAS_AFFINE
+    spring = float(HydraulicBank([cylinder], dt).spring[0])
+    act.biasprm = [0.0, -spring] + [0.0] * 8
+
+
+def _callback_actuator(act: mujoco.MjsActuator, k: int) -> None:
+    act.dyntype = _USER if k else mujoco.mjtDyn.mjDYN_NONE
+    act.actdim = k if k else -1
+    act.actlimited = mujoco.mjtLimited.mjLIMITED_FALSE
+    act.gaintype = mujoco.mjtGain.mjGAIN_FIXED
+    act.gainprm = [0.0] * 10
+    act.biastype = mujoco.mjtBias.mjBIAS_USER
+
+
+def _add_bristles(s: mujoco.MjSpec, joint: str) -> None:
+    act = s.add_actuator(name=joint + LUGRE_SUFFIX, target=joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+    act.dyntype = _USER
+    act.actdim = 1
+    act.actlimited = mujoco.mjtLimited.mjLIMITED_FALSE
+    act.gaintype = mujoco.mjtGain.mjGAIN_FIXED
+    act.gainprm = [0.0] * 10
+    act.biastype = mujoco.mjtBias.mjBIAS_NONE
+    act.ctrllimited = mujoco.mjtLimited.mjLIMITED_FALSE

@@ -1,0 +1,1 @@
+"""Actuator plugins defined outside maniplab, as a user would (importable as ``plugins.*``)."""

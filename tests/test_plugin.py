@@ -1,0 +1,284 @@
+"""Actuator plugins: a DC motor defined outside maniplab (tests/plugins/dcmotor.py), named in a
+spec and simulated with no change to maniplab; spec validation of its parameters; the registry;
+and MuJoCo's process-global callbacks, which plugin actuators use, handled safely."""
+
+from __future__ import annotations
+
+import importlib.metadata
+import math
+import textwrap
+import threading
+
+import mujoco
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+import maniplab as ml
+from maniplab.actuators import plugin as plugin_module
+from plugins.dcmotor import GearedDCMotor
+
+MOTOR = {"resistance": 1.0, "inductance": 5e-3, "torque_constant": 0.05, "gear_ratio": 20.0,
+         "efficiency": 0.9, "voltage_limit": 24.0}
+MASS, LENGTH, DAMPING = 2.0, 0.5, 0.02
+
+
+def motor_arm(actuator_type: str = "plugins.dcmotor:GearedDCMotor", **params: float) -> ml.ManipulatorSpec:
+    """One rotational joint about the vertical axis (no gravity torque), a 2 kg, 0.5 m rod."""
+    return ml.ManipulatorSpec.from_dict({
+        "name": "motor-arm",
+        "joints": [{
+            "name": "j", "type": "R", "axis": "z",
+            "body": {"length": LENGTH, "mass": MASS},
+            "actuator": {"type": actuator_type, **MOTOR, **params},
+            "friction": {"model": "hybrid", "viscous": DAMPING},
+        }],
+    })
+
+
+def motor_reference(t: np.ndarray, voltage: float) -> np.ndarray:
+    """Radau solution of the motor and rod: rows θ, ω, i at times t."""
+    J = MASS * LENGTH**2 / 3.0  # slender rod about its end
+    R, L, K, N, eta = (MOTOR[k] for k in ("resistance", "inductance", "torque_constant",
+                                          "gear_ratio", "efficiency"))
+
+    def rhs(_t: float, y: np.ndarray) -> list[float]:
+        theta, omega, i = y
+        return [omega, (eta * N * K * i - DAMPING * omega) / J, (voltage - R * i - K * N * omega) / L]
+
+    sol = solve_ivp(rhs, (t[0], t[-1]), [0.0, 0.0, 0.0], method="Radau", rtol=1e-11, atol=1e-13,
+                    t_eval=t)
+    return sol.y
+
+
+def test_dc_motor_plugin_matches_an_independent_integration() -> None:
+    run = ml.simulate(motor_arm(), inputs={"j": ml.signals.step(12.0)}, duration=0.4,
+                      sample_dt=1e-3)
+    theta, omega, current = motor_reference(run.t, 12.0)
+    assert np.max(np.abs(run["current"][:, 0] - current)) < 1e-4 * np.max(np.abs(current))
+    assert np.max(np.abs(run.qd[:, 0] - omega)) < 1e-4 * np.max(np.abs(omega))
+    assert np.max(np.abs(run.q[:, 0] - theta)) < 1e-4 * np.max(np.abs(theta))
+    # the recorded force is the plugin's: η N K i
+    np.testing.assert_allclose(run["tau_act"][:, 0], 0.9 * 20 * 0.05 * run["current"][:, 0])
+    assert run.meta["route"] == "native"  # plugins ride MuJoCo's callbacks on either route
+
+
+def test_plugin_command_is_clipped_to_its_limit() -> None:
+    run = ml.simulate(motor_arm(), inputs={"j": 100.0}, duration=0.01)
+    assert np.all(run["ctrl"][:, 0] == 24.0)
+    assert np.all(np.isnan(run["iv"]))  # no valve on this joint
+
+
+def test_plugin_spec_round_trips_and_reloads_from_a_run_file(tmp_path) -> None:
+    spec = motor_arm()
+    assert spec.joints[0].actuator.params.gear_ratio == 20.0
+    data = spec.to_dict()
+    assert data["joints"][0]["actuator"] == {"type": "plugins.dcmotor:GearedDCMotor", **MOTOR}
+    assert ml.ManipulatorSpec.from_dict(data) == spec
+    spec.dump(tmp_path / "motor.yaml")
+    assert ml.load_spec(tmp_path / "motor.yaml") == spec
+    run = ml.simulate(spec, inputs={"j": 5.0}, duration=0.02)
+    run.save(tmp_path / "run.npz")
+    assert ml.Run.load(tmp_path / "run.npz").spec == spec
+
+
+def test_mjcf_gives_a_plugin_one_activation_per_state() -> None:
+    model = ml.build_model(motor_arm())
+    act = model.actuator("j")
+    assert model.actuator_actnum[act.id] == 1
+    assert model.actuator_dyntype[act.id] == mujoco.mjtDyn.mjDYN_USER
+    assert model.actuator_biastype[act.id] == mujoco.mjtBias.mjBIAS_USER
+    assert list(act.ctrlrange) == [-24.0, 24.0]
+    assert "j" in ml.to_mjcf(motor_arm())
+
+
+@pytest.mark.parametrize(("edit", "field", "words"), [
+    ("resistance: 1.0", "actuator.resistance", ["expected a number > 0", "-2"]),
+    ("inductance: 0.005", "actuator.inductanse", ["unknown key 'inductanse'",
+                                                  "did you mean 'inductance'"]),
+    ("gear_ratio: 20", "actuator.gear_ratio", ["expected a number", "'twenty'"]),
+])
+def test_bad_plugin_parameters_name_file_joint_and_field(tmp_path, edit, field, words) -> None:
+    bad = {"resistance: 1.0": "resistance: -2.0", "inductance: 0.005": "inductanse: 0.005",
+           "gear_ratio: 20": "gear_ratio: twenty"}[edit]
+    text = textwrap.dedent(f"""\
+        name: motor
+        joints:
+          - name: wrist
+            type: R
+            axis: z
+            body: {{length: 0.5, mass: 2.0}}
+            actuator:
+              type: plugins.dcmotor:GearedDCMotor
+              resistance: 1.0
+              inductance: 0.005
+              torque_constant: 0.05
+              gear_ratio: 20
+        """).replace(edit, bad)
+    path = tmp_path / "motor.yaml"
+    path.write_text(text)
+    with pytest.raises(ml.SpecError) as caught:
+        ml.load_spec(path)
+    error = caught.value
+    assert (error.file, error.joint, error.field) == (str(path), "wrist", field)
+    assert error.line is not None and 8 <= error.line <= 12
+    for word in words:
+        assert word in str(error)
+
+
+@pytest.mark.parametrize(("kind", "words"), [
+    ("nosuchmodule.motors:Motor", ["cannot import module 'nosuchmodule.motors'"]),
+    ("plugins.dcmotor:Nothing", ["has no 'Nothing'"]),
+    ("plugins.dcmotor:DCMotorParams", ["not a subclass of maniplab.actuators.ActuatorPlugin"]),
+    ("electrik", ["unknown actuator type 'electrik'", "'torque' or 'hydraulic'",
+                  "'module:Class'"]),
+])
+def test_unknown_plugin_types_are_spec_errors(kind, words) -> None:
+    with pytest.raises(ml.SpecError) as caught:
+        motor_arm(kind)
+    assert caught.value.field == "actuator.type"
+    for word in words:
+        assert word in str(caught.value)
+
+
+def test_registered_names_and_entry_points(monkeypatch) -> None:
+    monkeypatch.setitem(plugin_module._REGISTRY, "test-motor", GearedDCMotor)
+    assert motor_arm("test-motor").joints[0].actuator.plugin is GearedDCMotor
+    point = importlib.metadata.EntryPoint(name="test-dcmotor", value="plugins.dcmotor:GearedDCMotor",
+                                          group=ml.actuators.ENTRY_POINT_GROUP)
+    monkeypatch.setattr(plugin_module, "entry_points", lambda group: [point])
+    spec = motor_arm("test-dcmotor")
+    assert spec.joints[0].actuator.plugin is GearedDCMotor
+    assert ml.actuators.resolve("torque") is ml.actuators.TorqueSource
+    with pytest.raises(ValueError, match="already registered"):
+        ml.actuators.register("torque", GearedDCMotor)
+    with pytest.raises(TypeError, match="not a subclass"):
+        ml.actuators.register("x", dict)  # type: ignore[arg-type]
+
+
+def test_the_interface_rejects_reserved_state_names() -> None:
+    with pytest.raises(TypeError, match="not a valid state name"):
+        class Bad(ml.actuators.ActuatorPlugin):  # noqa: F841
+            Params = dict
+            states = ("q",)
+
+            def derivatives(self, x, u, q, v):  # pragma: no cover
+                return x
+
+            def force(self, x, u, q, v):  # pragma: no cover
+                return 0.0
+
+
+def test_a_stateless_plugin() -> None:
+    spec = motor_arm().with_overrides({"joints.j.actuator": {"type": "plugins.dcmotor:Spring",
+                                                             "stiffness": 3.0}})
+    run = ml.simulate(spec, inputs={"j": 0.5}, duration=0.05)
+    # torque k (u - q), and no state signal for it
+    np.testing.assert_allclose(run["tau_act"][:, 0], 3.0 * (0.5 - run.q[:, 0]))
+    assert "current" not in run
+
+
+# --- callbacks: process-global, handled per plant ---------------------------------------------
+
+def _sentinel_dyn(m, d, i):  # noqa: ANN001, ANN202 - MuJoCo's callback signature
+    return 0.0
+
+
+def _sentinel_bias(m, d, i):  # noqa: ANN001, ANN202
+    return 0.0
+
+
+@pytest.fixture
+def sentinels():
+    """Callbacks that 'someone else' installed; every plant must give them back."""
+    mujoco.set_mjcb_act_dyn(_sentinel_dyn)
+    mujoco.set_mjcb_act_bias(_sentinel_bias)
+    yield
+    mujoco.set_mjcb_act_dyn(None)
+    mujoco.set_mjcb_act_bias(None)
+
+
+def _restored() -> bool:
+    return mujoco.get_mjcb_act_dyn() is _sentinel_dyn and mujoco.get_mjcb_act_bias() is _sentinel_bias
+
+
+def test_callbacks_are_restored_after_a_run(sentinels) -> None:
+    seen = []
+    ml.simulate(motor_arm(), inputs={"j": 6.0}, duration=0.01,
+                controller=lambda t, s: seen.append(mujoco.get_mjcb_act_dyn()) or [0.0])
+    assert all(cb is not None and cb is not _sentinel_dyn for cb in seen)  # the plant's own
+    assert _restored()
+
+
+def test_two_plugin_plants_interleaved_give_the_results_of_each_alone(sentinels) -> None:
+    slow, fast = motor_arm(), motor_arm(gear_ratio=10.0)
+    alone = [ml.simulate(s, inputs={"j": 12.0}, duration=0.05).q for s in (slow, fast)]
+    a, b = ml.Plant(slow), ml.Plant(fast)
+    qa, qb = [], []
+    for _ in range(50):
+        a.step([12.0])
+        b.step([12.0])
+        qa.append(a.data.qpos[0])
+        qb.append(b.data.qpos[0])
+    assert qa == alone[0][1:, 0].tolist()
+    assert qb == alone[1][1:, 0].tolist()
+    assert _restored()
+
+
+def test_a_plant_inside_another_plants_controller(sentinels) -> None:
+    """The inner plant installs its callbacks and gives the outer plant's back."""
+    inner = ml.Plant(motor_arm(gear_ratio=10.0))
+
+    def controller(t, state):  # noqa: ANN001, ANN202
+        inner.step([12.0])
+        return [12.0]
+
+    outer = ml.simulate(motor_arm(), controller=controller, duration=0.05)
+    assert outer.q[1:, 0].tolist() == ml.simulate(motor_arm(), inputs={"j": 12.0},
+                                                  duration=0.05).q[1:, 0].tolist()
+    alone = ml.simulate(motor_arm(gear_ratio=10.0), inputs={"j": 12.0}, duration=0.05)
+    assert inner.data.qpos[0] == alone.q[-1, 0]
+    assert _restored()
+
+
+def test_an_exception_in_a_step_restores_the_callbacks(sentinels) -> None:
+    spec = motor_arm("plugins.dcmotor:Faulty")
+    with pytest.raises(ml.PluginError) as caught:
+        ml.simulate(spec, inputs={"j": 12.0}, duration=0.5)
+    message = str(caught.value)
+    assert "joint j" in message and "winding burnt" in message and "t = " in message
+    assert isinstance(caught.value.__cause__, ValueError)
+    assert _restored()
+    # and the next plant runs normally
+    run = ml.simulate(motor_arm(), inputs={"j": 12.0}, duration=0.4, sample_dt=1e-3)
+    assert math.isclose(run["current"][-1, 0], motor_reference(run.t, 12.0)[2, -1], rel_tol=1e-4)
+
+
+def test_plants_in_two_threads_do_not_mix_their_callbacks() -> None:
+    specs = [motor_arm(), motor_arm(gear_ratio=10.0)]
+    alone = [ml.simulate(s, inputs={"j": 12.0}, duration=0.1).q for s in specs]
+    results: dict[int, np.ndarray] = {}
+
+    def work(k: int) -> None:
+        results[k] = ml.simulate(specs[k], inputs={"j": 12.0}, duration=0.1).q
+
+    threads = [threading.Thread(target=work, args=(k,)) for k in (0, 1)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    for k in (0, 1):
+        np.testing.assert_array_equal(results[k], alone[k])
+    assert mujoco.get_mjcb_act_dyn() is None
+
+
+def test_a_foreign_model_inside_the_scope_sees_no_callbacks() -> None:
+    """Stepping some other MuJoCo model while a plant's callbacks are installed leaves its user
+    actuators untouched, as if no callback were installed."""
+    other = ml.build_model(motor_arm())
+    data = mujoco.MjData(other)
+    data.act[:] = 1.0
+    plant = ml.Plant(motor_arm())
+    with plant.scope():
+        mujoco.mj_step(other, data)
+    assert data.act[0] == 1.0 and data.actuator_force[0] == 0.0
