@@ -78,6 +78,9 @@ class ArmView:
         """
         for i in range(start, scene.ngeom):
             geom = scene.geoms[i]
+            if geom.objtype == mujoco.mjtObj.mjOBJ_SITE:  # the end-effector marker starts the path;
+                geom.rgba[:] = tint or palette.PATH  # red is kept for joint limits
+                continue
             if geom.objtype != mujoco.mjtObj.mjOBJ_GEOM:
                 continue
             rgba = self._rgba(geom.objid, modes, tint)

@@ -247,8 +247,8 @@ class Overlay:
         view = out[:self.view_height]
         view[:] = self.view.frame(k)
         margin = self.font // 2
-        text.blend(view, self.runs_key, -margin, margin)  # which ghost is which: always shown
         if self.text:
+            text.blend(view, self.runs_key, -margin, margin)
             text.blend(view, text.stamp(self.times[k], self.font), margin, margin)
         if self.key is not None:
             text.blend(view, self.key, margin, -margin)
@@ -268,7 +268,7 @@ def render_overlay(runs: Sequence[Run], *, width: int = 1280, height: int = 720,
 
     Each variant is a translucent ghost in its run colour (the key at the top right names what
     differs); joint states keep their colours; each end-effector path is traced in its run colour.
-    Arguments as in :func:`render_grid` (``text``: time stamp and joint-state key).
+    Arguments as in :func:`render_grid` (``text``: time stamp, run key and joint-state key).
 
     Returns:
         uint8 RGB frames, shape (F, height, width, 3).

@@ -8,7 +8,7 @@ chooses ``egl`` when the user has not (see ``shared/DESIGN.md``).
 
 from __future__ import annotations
 
-import importlib
+from importlib import import_module
 import os
 import platform
 import warnings
@@ -66,7 +66,7 @@ def open_context(width: int, height: int) -> GLContext:
     try:
         with warnings.catch_warnings():  # glfw warns before it fails; the error says it all
             warnings.simplefilter("ignore")
-            module = importlib.import_module(f"mujoco.{name}")
+            module = import_module(f"mujoco.{name}")
             context: Any = module.GLContext(width, height)
             context.make_current()
     except Exception as exc:  # ImportError, OSError, GLError, RuntimeError... all mean "no GL"

@@ -44,6 +44,8 @@ class Trail:
         for start, end in zip(path[:-1], path[1:]):
             if scene.ngeom >= scene.maxgeom:
                 return
+            if not np.any(end != start):  # the tip rests on the last point: nothing to draw
+                continue
             geom = scene.geoms[scene.ngeom]
             mujoco.mjv_initGeom(geom, mujoco.mjtGeom.mjGEOM_LINE, np.zeros(3), np.zeros(3),
                                 _IDENTITY, self.colour)

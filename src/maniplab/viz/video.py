@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import itertools
 import os
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 import numpy as np
@@ -41,15 +41,25 @@ def write_video(frames: np.ndarray | Iterable[np.ndarray], path: str | os.PathLi
         RenderError: an unknown suffix, no frames, frames of a bad shape or type, an odd size for
             H.264, or ffmpeg failed.
     """
-    import imageio_ffmpeg
-    import mediapy
-
     path = Path(path)
     codec = check_format(path)
     if not fps > 0:
         raise RenderError(f"fps must be a positive number, got {fps}")
     iterator = iter(frames)
-    first = next(iterator, None)
+    try:
+        _write(iterator, path, codec, fps)
+    finally:
+        close = getattr(iterator, "close", None)
+        if close is not None:  # a frame stream frees its OpenGL context now, even on error
+            close()
+    return path
+
+
+def _write(frames: Iterator[np.ndarray], path: Path, codec: str, fps: float) -> None:
+    import imageio_ffmpeg
+    import mediapy
+
+    first = next(frames, None)
     if first is None:
         raise RenderError(f"cannot write '{path.name}': no frames")
     shape = _check_frame(first, None)
@@ -60,7 +70,7 @@ def write_video(frames: np.ndarray | Iterable[np.ndarray], path: str | os.PathLi
     options = {"crf": CRF} if codec == "h264" else {}
     try:
         with mediapy.VideoWriter(tmp, shape, codec=codec, fps=fps, **options) as writer:
-            for frame in itertools.chain([first], iterator):
+            for frame in itertools.chain([first], frames):
                 _check_frame(frame, shape)
                 writer.add_image(frame)
         os.replace(tmp, path)
@@ -69,10 +79,6 @@ def write_video(frames: np.ndarray | Iterable[np.ndarray], path: str | os.PathLi
             from exc
     finally:
         tmp.unlink(missing_ok=True)
-        close = getattr(iterator, "close", None)
-        if close is not None:  # a frame stream frees its OpenGL context now, even on error
-            close()
-    return path
 
 
 def check_format(path: Path, width: int | None = None, height: int | None = None) -> str:
