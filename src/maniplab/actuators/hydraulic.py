@@ -93,44 +93,66 @@ class HydraulicBank:
     Args:
         cylinders: the joints' hydraulic parameters.
         dt: the plant's step, s.
+        joints: each cylinder's joint index in the plant's lists (default 0..h-1).
+        adrs: each cylinder's ΔP address in the plant's activation list; Q is the next one
+            (default 0, 2, 4, ...).
     """
 
-    def __init__(self, cylinders: Sequence[HydraulicActuator], dt: float) -> None:
+    def __init__(self, cylinders: Sequence[HydraulicActuator], dt: float,
+                 joints: Sequence[int] | None = None, adrs: Sequence[int] | None = None) -> None:
         self.dt = dt
-        self._lanes = [_Lane.of(c, dt) for c in cylinders]
+        self.lanes = [_Lane.of(c, dt) for c in cylinders]
+        joints = range(len(cylinders)) if joints is None else joints
+        adrs = range(0, 2 * len(cylinders), 2) if adrs is None else adrs
+        self._constants = [(j, a, *dataclasses.astuple(lane))
+                           for j, a, lane in zip(joints, adrs, self.lanes)]
         self._flow = [0.0] * len(cylinders)
 
     @property
     def spring(self) -> list[float]:
-        """Oil spring k = A²E/V of each joint, N/m or N·m/rad."""
-        return [lane.spring for lane in self._lanes]
+        """Oil spring k = A²E/V of each cylinder, N/m or N·m/rad."""
+        return [lane.spring for lane in self.lanes]
 
-    def prepare(self, q: Sequence[float], dP: Sequence[float], Q: Sequence[float],
-                u: Sequence[float]) -> list[float]:
-        """The constant term b0 of each actuator force ``b0 - k q`` for the coming step.
+    def prepare(self, q: Sequence[float], act: Sequence[float], u: Sequence[float],
+                b0: list[float]) -> None:
+        """Write each cylinder's constant term of the force ``b0 - k q`` for the coming step.
 
         Args:
-            q: joint positions, rad or m.  dP: ΔP, Pa.  Q: flow, m³/s.  u: clipped i_v, A.
+            q: joint positions (all joints), rad or m.
+            act: activations (ΔP Pa, Q m³/s at the cylinders' addresses).
+            u: clipped commands (valve currents A at the cylinders' joints).
+            b0: written at the cylinders' joints, N or N·m.
         """
-        b0 = []
-        for i, lane in enumerate(self._lanes):
-            flow = lane.volume(dP[i], Q[i], u[i])[1]
-            self._flow[i] = flow
-            rise = lane.c * (flow - lane.leak_dt * dP[i])
-            b0.append(lane.area * (dP[i] + 0.5 * rise) + lane.spring * q[i])
-        return b0
+        flows = []
+        for j, a, area, c, leak_dt, gain_v, inv_ps, _, _, _, memory, spring, dt in self._constants:
+            p, f = act[a], act[a + 1]
+            root = 1.0 - abs(p) * inv_ps
+            target = u[j] * gain_v * math.sqrt(root) if root > 0.0 else 0.0
+            flow = target * dt + (f - target) * memory
+            flows.append(flow)
+            b0[j] = area * (p + 0.5 * c * (flow - leak_dt * p)) + spring * q[j]
+        self._flow = flows
 
-    def finish(self, dP: Sequence[float], Q: Sequence[float], u: Sequence[float],
-               dq: Sequence[float]) -> tuple[list[float], list[float]]:
-        """(ΔP, Q) at the step's end, given each joint's displacement over it (rad or m)."""
-        dP1, Q1 = [], []
-        for i, lane in enumerate(self._lanes):
-            swept = lane.area * dq[i]
-            predicted = lane.decay * dP[i] + lane.gain * (self._flow[i] - swept)
-            target, flow = lane.volume(0.5 * (dP[i] + predicted), Q[i], u[i])
-            dP1.append(lane.decay * dP[i] + lane.gain * (flow - swept))
-            Q1.append(target + (Q[i] - target) * lane.valve_decay)
-        return dP1, Q1
+    def finish(self, q0: Sequence[float], q1: Sequence[float], act0: Sequence[float],
+               u: Sequence[float], act1: list[float]) -> None:
+        """Write (ΔP, Q) at the step's end into ``act1``.
+
+        Args:
+            q0, q1: joint positions at the step's start and end (all joints), rad or m.
+            act0: activations at the step's start (as given to :meth:`prepare`).
+            u: the commands of the step.
+            act1: activations to update.
+        """
+        for (j, a, area, _, _, gain_v, inv_ps, decay, gain, valve_decay, memory, _, dt), flow in zip(
+                self._constants, self._flow):
+            p, f = act0[a], act0[a + 1]
+            swept = area * (q1[j] - q0[j])
+            held = decay * p
+            mid = 0.5 * (p + held + gain * (flow - swept))
+            root = 1.0 - abs(mid) * inv_ps
+            target = u[j] * gain_v * math.sqrt(root) if root > 0.0 else 0.0
+            act1[a] = held + gain * (target * dt + (f - target) * memory - swept)
+            act1[a + 1] = target + (f - target) * valve_decay
 
 
 @dataclasses.dataclass(frozen=True)
@@ -159,9 +181,3 @@ class _Lane:
             gain=c * phi1(lam * dt), valve_decay=math.exp(-dt / p.valve_tau),
             valve_memory=-p.valve_tau * math.expm1(-dt / p.valve_tau), spring=p.area**2 * c, dt=dt,
         )
-
-    def volume(self, dP: float, Q: float, u: float) -> tuple[float, float]:
-        """(Q*, ∫Q over the step) for pressure dP, flow Q and current u."""
-        root = 1.0 - abs(dP) * self.inv_supply
-        target = u * self.valve_gain * math.sqrt(root) if root > 0.0 else 0.0
-        return target, target * self.dt + (Q - target) * self.valve_memory

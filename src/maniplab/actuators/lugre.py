@@ -9,11 +9,14 @@ With the spec's keys (Fc ``coulomb``, the static level Fc + ``static``, vs ``str
 
 The bristle state z (m, or rad) lives in MuJoCo's activations (one per LuGre joint), so it is
 part of ``mj_getState``. Its relaxation rate σ0|v|/g(v) reaches 1e4 1/s on the 1995 paper's
-stick-slip case, which is what makes LuGre stiff (explicit Euler needs dt ≈ 1e-5 s there). The
-plant updates z with the exact solution for the step's mean velocity v̄ = Δq/dt,
-``z' = z e^(-a dt) + v̄ dt φ1(a dt)``, a = σ0|v̄|/g(v̄), which is stable at any step; the force
-σ0 z + σ1 ż is held over the step (σ2 v is MuJoCo's joint damping, integrated inside the step).
-The explicit force keeps the bristle spring's stability bound, ω dt < 2 with ω = sqrt(σ0/m).
+stick-slip case, which is what makes LuGre stiff (explicit Euler needs dt ≈ 1e-5 s there).
+
+On the plant's native route z is updated with the exact solution for the step's mean velocity
+v̄ = Δq/dt, ``z' = z e^(-a dt) + v̄ dt φ1(a dt)``, a = σ0|v̄|/g(v̄), which is stable at any step;
+the force σ0 z + σ1 ż is held over the step (σ2 v is MuJoCo's joint damping, integrated inside
+the step). The held force keeps the bristle spring's stability bound, ω dt < 2 with
+ω = sqrt(σ0/m). On the callback route (:class:`LuGreBristles`) MuJoCo's RK4 integrates z with
+the arm, the generic way, bounded by the relaxation rate instead.
 """
 
 from __future__ import annotations
@@ -25,7 +28,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from maniplab.actuators.hydraulic import phi1
-from maniplab.spec import Friction, FrictionModel
+from maniplab.spec import Friction, FrictionModel, Joint
 
 
 def steady_force(friction: Friction, v: np.ndarray) -> np.ndarray:
@@ -78,3 +81,27 @@ class LuGreFriction:
 
     def __len__(self) -> int:
         return len(self.joints)
+
+
+class LuGreBristles:
+    """LuGre on one joint as an element MuJoCo integrates (the plant's callback route).
+
+    Same interface as an actuator plugin: state z, ``derivatives`` dz/dt and the force
+    -(σ0 z + σ1 dz/dt) (σ2 v is the joint's damping). MuJoCo's RK4 then integrates z together
+    with the arm, the generic way of simulating LuGre, which needs steps short enough for the
+    bristle relaxation rate σ0|v|/g(v) (RK4 is stable up to about 2.8 / rate).
+    """
+
+    states = ("z",)
+
+    def __init__(self, lugre: LuGreJoint, joint: Joint) -> None:
+        self.lugre = lugre
+        self.joint = joint
+
+    def derivatives(self, x: np.ndarray, u: float, q: float, v: float) -> np.ndarray:
+        """(dz/dt,)."""
+        return np.array([self.lugre.rate(float(x[0]), v)])
+
+    def force(self, x: np.ndarray, u: float, q: float, v: float) -> float:
+        """The bristles' force on the joint, N or N·m."""
+        return self.lugre.force(float(x[0]), v)

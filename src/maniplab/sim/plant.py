@@ -44,7 +44,7 @@ from maniplab.actuators.automaton import transitions
 from maniplab.actuators.friction import HybridFriction, slip_force, sticks
 from maniplab.actuators.hydraulic import PRESSURE_LIMIT, HydraulicBank, HydraulicCylinder
 from maniplab.actuators.limits import JointLimits
-from maniplab.actuators.lugre import LuGreFriction
+from maniplab.actuators.lugre import LuGreBristles, LuGreFriction
 from maniplab.actuators.modes import FrictionMode
 from maniplab.actuators.plugin import ActuatorPlugin, plugin_of
 from maniplab.actuators.torque import TorqueSource
@@ -103,10 +103,14 @@ class Plant:
                   for a in self.actuators]
         self.model = build_plant_model(
             self.spec, dt=self.dt, integrator=self.integrator, native=native,
-            states=[len(a.states) for a in self.actuators],
+            states=[len(a.states) for a in self.actuators], lugre_integrated=route == "callbacks",
         )
         self.data = mujoco.MjData(self.model)
+        d = self.data  # views into the data, cached: each attribute access makes a new array
+        self._qpos, self._qvel, self._act = d.qpos, d.qvel, d.act
+        self._ctrl, self._applied = d.ctrl[: self.n], d.qfrc_applied
         self._layout_states()
+        self._nan = np.full(self.n, np.nan)
         self._setup_actuators(native)
         self._setup_friction()
         self._modes = [_SLIP] * self.n
@@ -144,12 +148,10 @@ class Plant:
         self._command_limit = [math.inf if lim is None else float(lim) for lim in limits]
         self.command_limit = np.array(self._command_limit)
         adr = [int(a) for a in self.model.actuator_actadr]
-        self._hj = [i for i, a in enumerate(self.actuators)
-                    if native[i] and isinstance(a, HydraulicCylinder)]
-        self._hP = [adr[i] for i in self._hj]
-        self._hQ = [adr[i] + 1 for i in self._hj]
-        self._bank = (HydraulicBank([self.actuators[i].params for i in self._hj], self.dt)
-                      if self._hj else None)
+        hj = [i for i, a in enumerate(self.actuators)
+              if native[i] and isinstance(a, HydraulicCylinder)]
+        self._bank = (HydraulicBank([self.actuators[i].params for i in hj], self.dt,
+                                    joints=hj, adrs=[adr[i] for i in hj]) if hj else None)
         self._bias = self.model.actuator_biasprm[: self.n, 0]  # a view into the model
         self._b0 = [0.0] * self.n
         cylinders = [i for i, a in enumerate(self.actuators) if isinstance(a, HydraulicCylinder)]
@@ -157,9 +159,7 @@ class Plant:
             (i, adr[i], PRESSURE_LIMIT * self.actuators[i].params.supply_pressure)
             for i in cylinders
         ]
-        plugins = [(i, a, i) for i, a in enumerate(self.actuators) if not native[i]]
-        self._callbacks = (_callbacks.PluginCallbacks(self.model, self.data, plugins)
-                           if plugins else None)
+        self._integrated = [(i, a, i) for i, a in enumerate(self.actuators) if not native[i]]
 
     def _setup_friction(self) -> None:
         frictions = [j.friction for j in self.spec.joints]
@@ -169,7 +169,21 @@ class Plant:
         self._viscous = [f.viscous if f.model is not FrictionModel.none else 0.0 for f in frictions]
         joints, adrs = self.state_layout.get("z", ([], []))
         z_adr = {int(j): int(a) for j, a in zip(joints, adrs)}
-        self._lugre = [(L, z_adr[L.joint]) for L in self.lugre.joints]
+        if self.route == "callbacks":  # MuJoCo integrates z (the generic, stiff way)
+            for lugre in self.lugre.joints:
+                name = self.joint_names[lugre.joint] + LUGRE_SUFFIX
+                bristles = LuGreBristles(lugre, self.spec.joints[lugre.joint])
+                self._integrated.append((self.model.actuator(name).id, bristles, lugre.joint))
+            self._lugre = []
+        else:
+            self._lugre = [(L, z_adr[L.joint]) for L in self.lugre.joints]
+        self._callbacks = (_callbacks.PluginCallbacks(self.model, self.data, self._integrated)
+                           if self._integrated else None)
+        self._slip = [(h.joint, h.coulomb, h.static, h.stribeck_velocity)
+                      for h in self.hybrid.joints]
+        self._sticky = [(h.joint, h.stick_velocity) for h in self.hybrid.sticky]
+        self._limited = [(j, self.limits.lower[j], self.limits.upper[j])
+                         for j in self.limits.limited]
         self._armature = self.model.dof_armature.copy()
         self._hold_inertia = HOLD_INERTIA * _largest_inertia(self.model)
         self._held: list[int] = []
@@ -277,10 +291,11 @@ class Plant:
 
     def states(self) -> dict[str, np.ndarray]:
         """Every named state, each shape (n,) with NaN at joints without it."""
+        act = self.data.act
         out = {}
         for name, (joints, adrs) in self.state_layout.items():
-            full = np.full(self.n, np.nan)
-            full[joints] = self.data.act[adrs]
+            full = self._nan.copy()
+            full[joints] = act[adrs]
             out[name] = full
         return out
 
@@ -288,10 +303,10 @@ class Plant:
         """A snapshot for a controller (copies)."""
         d = self.data
         states = self.states()
-        nan = np.full(self.n, np.nan)
         return PlantState(
             t=float(d.time), q=d.qpos.copy(), qd=d.qvel.copy(),
-            dP=states.get("dP", nan).copy(), Q=states.get("Q", nan).copy(),
+            dP=states["dP"] if "dP" in states else self._nan.copy(),
+            Q=states["Q"] if "Q" in states else self._nan.copy(),
             mode=np.array(self._modes), states=states, joint_names=self.joint_names,
         )
 
@@ -366,36 +381,28 @@ class Plant:
         Args:
             u: commands, one per joint (valve current A, or force N / torque N·m).
         """
-        d, n = self.data, self.n
-        u = [min(max(x, -lim), lim) for x, lim in zip(u, self._command_limit)]
-        d.ctrl[:n] = u
-        q0, v0 = d.qpos.tolist(), d.qvel.tolist()
-        act = d.act.tolist()
+        n = self.n
+        u = [x if -lim <= x <= lim else (lim if x > 0.0 else -lim)
+             for x, lim in zip(u, self._command_limit)]
+        self._ctrl[:] = u
+        q0, v0, act = self._qpos.tolist(), self._qvel.tolist(), self._act.tolist()
         modes = self._modes
         if self._bank is not None:
-            hj = self._hj
-            self._P0 = [act[i] for i in self._hP]
-            self._Q0 = [act[i] for i in self._hQ]
-            self._uh = [u[j] for j in hj]
-            b0 = self._bank.prepare([q0[j] for j in hj], self._P0, self._Q0, self._uh)
-            full = self._b0
-            for j, value in zip(hj, b0):
-                full[j] = value
-            self._bias[:] = full
+            self._bank.prepare(q0, act, u, self._b0)
+            self._bias[:] = self._b0
         fric = [0.0] * n
-        for h in self.hybrid.joints:
-            j = h.joint
+        direction = self._direction
+        for j, coulomb, static, stribeck in self._slip:
             if modes[j] == _SLIP:
-                fric[j] = slip_force(v0[j], self._direction[j], h.coulomb, h.static,
-                                     h.stribeck_velocity)
+                fric[j] = slip_force(v0[j], direction[j], coulomb, static, stribeck)
         for lugre, adr in self._lugre:
             j = lugre.joint
             fric[j] += lugre.force(act[adr], v0[j])
-        d.qfrc_applied[:] = fric
+        self._applied[:] = fric
         held = [j for j in range(n) if modes[j] != _SLIP]
         if held != self._held:
             self._arm(held)
-        self._fric = fric
+        self._fric, self._u = fric, u
         self._q0, self._v0, self._act0 = q0, v0, act
         self._prepared = True
 
@@ -427,44 +434,38 @@ class Plant:
         mujoco.mj_step(m, d)
         self._prepared = False
         q0, v0, modes = self._q0, self._v0, self._modes
-        q1, v1 = d.qpos.tolist(), d.qvel.tolist()
-        fric, limit = list(self._fric), [0.0] * self.n
+        q1, v1 = self._qpos.tolist(), self._qvel.tolist()
+        fric, limit = self._fric, [0.0] * self.n
         moved = bool(self._held)
-        if self._held:
+        if moved:
             self._release(q0, q1, v1, fric, limit)
-        for h in self.hybrid.sticky:
-            j = h.joint
-            if modes[j] == _SLIP and sticks(v0[j], v1[j], h.stick_velocity):
+        for j, stick_velocity in self._sticky:
+            if modes[j] == _SLIP and sticks(v0[j], v1[j], stick_velocity):
                 v1[j] = 0.0
                 modes[j] = _STICK
                 moved = True
-        lower, upper = self.limits.lower, self.limits.upper
-        for j in self.limits.limited:
-            if q1[j] < lower[j]:
-                q1[j], v1[j], modes[j] = lower[j], 0.0, _LOWER
+        for j, lower, upper in self._limited:
+            x = q1[j]
+            if x < lower:
+                q1[j], v1[j], modes[j] = lower, 0.0, _LOWER
                 moved = True
-            elif q1[j] > upper[j]:
-                q1[j], v1[j], modes[j] = upper[j], 0.0, _UPPER
+            elif x > upper:
+                q1[j], v1[j], modes[j] = upper, 0.0, _UPPER
                 moved = True
         if moved:
-            d.qpos[:] = q1
-            d.qvel[:] = v1
+            self._qpos[:] = q1
+            self._qvel[:] = v1
         if not math.isfinite(math.fsum(v1)):
             self._unstable_motion()
         self._tau_fric = [f - c * v for f, c, v in zip(fric, self._viscous, v0)]
         self._tau_limit = limit
-        act = d.act.tolist()
+        act = self._act.tolist()
         if self._bank is not None:
-            dq = [q1[j] - q0[j] for j in self._hj]
-            P1, Q1 = self._bank.finish(self._P0, self._Q0, self._uh, dq)
-            for i, value in zip(self._hP, P1):
-                act[i] = value
-            for i, value in zip(self._hQ, Q1):
-                act[i] = value
+            self._bank.finish(q0, q1, self._act0, self._u, act)
         for lugre, adr in self._lugre:
             j = lugre.joint
             act[adr] = lugre.advance(self._act0[adr], (q1[j] - q0[j]) / dt, dt)
-        d.act[:] = act
+        self._act[:] = act
         for j, adr, bound in self._pressure_checks:
             if not abs(act[adr]) <= bound:
                 self._unstable_pressure(j, act[adr], bound)
@@ -474,19 +475,26 @@ class Plant:
         """Holding forces of the held joints over the step, their reset and transitions."""
         held, modes = self._held, self._modes
         scale = -self._hold_inertia / self.dt
+        breakaway = self.hybrid.breakaway
         hold = []
+        change = False
         for j in held:
-            hold.append(scale * v1[j])  # Δq̇ = v1 - 0: the step's average q̈ times dt
+            h = scale * v1[j]  # v1 - 0 = the step's average acceleration times dt
+            hold.append(h)
             q1[j], v1[j] = q0[j], 0.0
-        new, direction = transitions(
-            [modes[j] for j in held], hold,
-            [self.hybrid.breakaway[j] for j in held], [self.hybrid.can_stick[j] for j in held],
-        )
-        for j, old, mode, h, sign in zip(held, [modes[j] for j in held], new, hold, direction):
-            if old == _STICK:
+            mode = modes[j]
+            if mode == _STICK:
                 fric[j] += h
+                change = change or abs(h) > breakaway[j]
             else:
                 limit[j] = h
+                change = change or (h > 0.0 if mode == _UPPER else h < 0.0)
+        if not change:
+            return
+        new, direction = transitions([modes[j] for j in held], hold,
+                                     [breakaway[j] for j in held],
+                                     [self.hybrid.can_stick[j] for j in held])
+        for j, mode, sign in zip(held, new, direction):
             modes[j] = mode
             if sign:
                 self._direction[j] = sign

@@ -13,8 +13,9 @@ Changes to the arm's model, all made on the MjSpec before compiling:
 - an actuator on the callback route (plugins) gets one user activation per state, a zero gain
   and a user bias: MuJoCo integrates its states and asks for its force through the plant's
   callbacks (:mod:`maniplab.sim.callbacks`);
-- each LuGre joint gets an extra force-less actuator ``<joint>/lugre`` with one user activation,
-  the bristle state z (``/`` cannot occur in a joint name, so the name is free).
+- each LuGre joint gets an extra actuator ``<joint>/lugre`` with one user activation, the bristle
+  state z (``/`` cannot occur in a joint name, so the name is free); it has no force on the native
+  route (the plant applies LuGre's force), and a user bias on the callback route.
 """
 
 from __future__ import annotations
@@ -36,7 +37,8 @@ _USER = mujoco.mjtDyn.mjDYN_USER
 
 
 def build_plant_model(spec: ManipulatorSpec, *, dt: float, integrator: int,
-                      native: Sequence[bool], states: Sequence[int]) -> mujoco.MjModel:
+                      native: Sequence[bool], states: Sequence[int],
+                      lugre_integrated: bool = False) -> mujoco.MjModel:
     """Compile the plant's model of ``spec``.
 
     Args:
@@ -45,6 +47,7 @@ def build_plant_model(spec: ManipulatorSpec, *, dt: float, integrator: int,
         integrator: a ``mujoco.mjtIntegrator`` value.
         native: per joint, whether its actuator runs on the native route.
         states: per joint, the number of states of its actuator (callback route).
+        lugre_integrated: LuGre's z is integrated by MuJoCo through callbacks (callback route).
 
     Returns:
         The model; actuator i < n drives joint i, LuGre state actuators follow.
@@ -65,7 +68,7 @@ def build_plant_model(spec: ManipulatorSpec, *, dt: float, integrator: int,
         if joint.friction.model is not FrictionModel.none:
             joints[joint.name].damping = [joint.friction.viscous, 0.0, 0.0]
         if joint.friction.model is FrictionModel.lugre:
-            _add_bristles(s, joint.name)
+            _add_bristles(s, joint.name, integrated=lugre_integrated)
     with suspended():
         model = compile_checked(s, spec)
     check_drives_mass(model, spec)
@@ -89,12 +92,14 @@ def _callback_actuator(act: mujoco.MjsActuator, k: int) -> None:
     act.biastype = mujoco.mjtBias.mjBIAS_USER
 
 
-def _add_bristles(s: mujoco.MjSpec, joint: str) -> None:
+def _add_bristles(s: mujoco.MjSpec, joint: str, *, integrated: bool) -> None:
+    """The bristle state's actuator: no force of its own on the native route; on the callback
+    route MuJoCo integrates z and takes the friction force from the callbacks."""
     act = s.add_actuator(name=joint + LUGRE_SUFFIX, target=joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)
     act.dyntype = _USER
     act.actdim = 1
     act.actlimited = mujoco.mjtLimited.mjLIMITED_FALSE
     act.gaintype = mujoco.mjtGain.mjGAIN_FIXED
     act.gainprm = [0.0] * 10
-    act.biastype = mujoco.mjtBias.mjBIAS_NONE
+    act.biastype = mujoco.mjtBias.mjBIAS_USER if integrated else mujoco.mjtBias.mjBIAS_NONE
     act.ctrllimited = mujoco.mjtLimited.mjLIMITED_FALSE

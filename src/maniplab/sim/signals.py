@@ -166,7 +166,10 @@ class Sum(Signal):
     terms: tuple[Signal, ...]
 
     def __call__(self, t: float) -> float:
-        return sum(term(t) for term in self.terms)
+        total = 0.0
+        for term in self.terms:
+            total += term(t)
+        return total
 
     def __repr__(self) -> str:
         text = " + ".join(repr(term) for term in self.terms)

@@ -85,10 +85,11 @@ def simulate(spec_or_plant: SpecLike | Plant, *, inputs: Mapping[str | int, Any]
     held = [0.0] * plant.n
     next_call = t0
     n = plant.n
+    dt, prepare, advance = plant.dt, plant.prepare, plant.advance
     with plant.scope():
         for k in range(steps + 1):
-            t = t0 + k * plant.dt
-            if controller is not None and k < steps and t >= next_call - 1e-9 * plant.dt:
+            t = t0 + k * dt
+            if controller is not None and k < steps and t >= next_call - 1e-9 * dt:
                 held = _call(controller, t, plant)
                 next_call = next_call + period if period else t
             u = list(held)
@@ -97,13 +98,13 @@ def simulate(spec_or_plant: SpecLike | Plant, *, inputs: Mapping[str | int, Any]
             if not math.isfinite(math.fsum(u)):
                 raise InputError(f"non-finite command at t = {t:.6g} s: "
                                  f"{dict(zip(plant.joint_names, u))}")
-            plant.prepare(u)
+            prepare(u)
             record = k % every == 0 or k == steps
             if record:
                 recorder.state(t)
             if k == steps:
                 break
-            plant.advance()
+            advance()
             if record:
                 recorder.forces()
     recorder.forces()
@@ -190,7 +191,13 @@ def _controller_period(controller: Controller | None) -> float | None:
 def _call(controller: Controller, t: float, plant: Plant) -> list[float]:
     commands = controller(t, plant.state())
     try:
-        return plant.command_vector(commands).tolist()
+        if isinstance(commands, Mapping):
+            return plant.command_vector(commands).tolist()
+        values = np.asarray(commands, dtype=float)
+        if values.shape != (plant.n,):
+            raise InputError(f"expected {plant.n} commands (or a mapping joint -> command), "
+                             f"got shape {values.shape}")
+        return values.tolist()
     except (InputError, TypeError, ValueError) as exc:
         raise InputError(f"controller at t = {t:.6g} s: {exc}") from None
 
@@ -215,7 +222,7 @@ class _Recorder:
         self._q.append(p._q0)
         self._qd.append(p._v0)
         self._act.append(p._act0)
-        self._ctrl.append(p.data.ctrl[: p.n].tolist())
+        self._ctrl.append(p._u)
         self._mode.append(list(p._modes))
 
     def forces(self) -> None:

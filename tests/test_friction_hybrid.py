@@ -1,0 +1,171 @@
+"""Hybrid stick/slip friction and the joint-limit automaton in the plant, against statics,
+closed forms and the analytic model's constrained (stuck-joint) dynamics."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+import maniplab as ml
+from maniplab.actuators import FrictionMode
+from maniplab.actuators.automaton import transitions
+from maniplab.actuators.friction import slip_force, sticks
+
+STICK, SLIP = FrictionMode.STICK, FrictionMode.SLIP
+AT_LOWER, AT_UPPER = FrictionMode.AT_LOWER, FrictionMode.AT_UPPER
+
+
+def slider(friction: dict, *, mass: float = 10.0, limits: list[float] | None = None,
+           actuator: dict | None = None) -> ml.ManipulatorSpec:
+    """A horizontal prismatic joint (gravity across it) driven by a force source."""
+    joint = {"name": "x", "type": "P", "axis": "x", "body": {"mass": mass},
+             "actuator": actuator or {"type": "torque"}, "friction": friction}
+    if limits:
+        joint["limits"] = limits
+    return ml.ManipulatorSpec.from_dict({"name": "slider", "joints": [joint]})
+
+
+HYBRID = {"model": "hybrid", "coulomb": 20.0, "static": 10.0, "stribeck_velocity": 0.01,
+          "viscous": 5.0, "stick_velocity": 1e-3}
+
+
+def test_force_laws() -> None:
+    assert slip_force(0.5, 1.0, 20.0, 10.0, 0.01) == pytest.approx(-20.0)  # Stribeck gone
+    assert slip_force(-0.01, 1.0, 20.0, 10.0, 0.01) == pytest.approx(20.0 + 10.0 / np.e)
+    assert slip_force(0.0, -1.0, 20.0, 10.0, 0.01) == 30.0  # just broke away, moving -x
+    assert sticks(0.1, -0.1, 1e-3) and sticks(2e-3, 5e-4, 1e-3)
+    assert not sticks(0.0, 5e-4, 1e-3)  # accelerating from rest: keeps slipping
+
+
+def test_transitions() -> None:
+    modes = [STICK, STICK, AT_UPPER, AT_LOWER]
+    new, direction = transitions(modes, [29.0, -31.0, -5.0, 5.0], [30.0] * 4, [True] * 4)
+    assert new == [STICK, SLIP, AT_UPPER, AT_LOWER] and direction == [0.0, 1.0, 0.0, 0.0]
+    # a stop that would pull releases first; break-aways wait a step
+    new, direction = transitions(modes, [29.0, -31.0, 5.0, 5.0], [30.0] * 4,
+                                 [True, True, False, True])
+    assert new == [STICK, STICK, SLIP, AT_LOWER] and direction == [0.0] * 4
+
+
+def test_breakaway_under_a_slow_force_ramp() -> None:
+    """A stuck joint starts moving when the applied force crosses Fc + Fs = 30 N."""
+    rate = 5.0  # N/s: 0.005 N per step, 0.02 % of the break-away force
+    run = ml.simulate(slider(HYBRID), inputs={"x": ml.signals.ramp(rate)}, duration=7.0)
+    moving = np.flatnonzero(run["mode"][:, 0] == SLIP)
+    first = moving[0]
+    assert run.q[first - 1, 0] == 0.0 and np.all(run.q[:first, 0] == 0.0)
+    assert run["ctrl"][first, 0] == pytest.approx(30.0, rel=1e-2)
+    assert np.all(run["mode"][first:, 0] == SLIP) and run.q[-1, 0] > 0.0
+    # while stuck, stiction holds exactly the applied force (statics)
+    stuck = slice(1, first - 2)
+    np.testing.assert_allclose(run["tau_fric"][stuck, 0],
+                               -(run["ctrl"][stuck, 0]), rtol=1e-9, atol=1e-9)
+
+
+def test_stiction_holds_a_joint_against_gravity() -> None:
+    """A 2 kg, 1 m rod held horizontal by stiction (gravity torque 9.81 N·m < Fc + Fs = 12)."""
+    spec = ml.ManipulatorSpec.from_dict({
+        "name": "rod", "gravity": [0.0, -9.81, 0.0],
+        "joints": [{"name": "q", "type": "R", "axis": "z", "body": {"length": 1.0, "mass": 2.0},
+                    "friction": {"model": "hybrid", "coulomb": 10.0, "static": 2.0}}],
+    })
+    run = ml.simulate(spec, duration=10.0, sample_dt=0.01)
+    assert np.max(np.abs(run.q[:, 0] - run.q[0, 0])) < 1e-6
+    assert np.all(run["mode"][:, 0] == STICK)
+    np.testing.assert_allclose(run["tau_fric"][:, 0], 2.0 * 9.81 * 0.5, rtol=1e-9)
+
+
+def test_a_slipping_joint_stops_as_coulomb_friction_says() -> None:
+    """Sliding at v0 against Coulomb friction alone: it stops after m v0 / Fc, having travelled
+    m v0² / (2 Fc), and sticks there."""
+    mass, v0, fc = 10.0, 0.5, 20.0
+    friction = {"model": "hybrid", "coulomb": fc, "static": 0.0, "stick_velocity": 1e-3}
+    run = ml.simulate(slider(friction, mass=mass), initial={"qd": [v0]}, duration=0.5)
+    stop = np.flatnonzero(run["mode"][:, 0] == STICK)[0]
+    assert run.t[stop] == pytest.approx(mass * v0 / fc, abs=2e-3)
+    assert run.q[-1, 0] == pytest.approx(mass * v0**2 / (2 * fc), rel=1e-3)
+    assert np.all(run.qd[stop:, 0] == 0.0)
+
+
+def test_limits_hold_and_release() -> None:
+    """Pushed at 5 N into its upper limit the joint stays on it, the stop pushing back 5 N; pulled
+    back at 5 N after 1 s it leaves."""
+    spec = slider({"model": "none"}, limits=[-0.1, 0.05])
+    push = ml.signals.step(5.0) - ml.signals.step(10.0, t0=1.0)
+    run = ml.simulate(spec, inputs={"x": push}, duration=1.2)
+    q, mode = run.q[:, 0], run["mode"][:, 0]
+    assert np.all(q <= 0.05) and np.all(q >= -0.1)
+    at_stop = (run.t > 0.46) & (run.t < 0.999)
+    assert np.all(mode[at_stop] == AT_UPPER) and np.all(q[at_stop] == 0.05)
+    np.testing.assert_allclose(run["tau_limit"][at_stop, 0], -5.0, rtol=1e-9)
+    assert mode[-1] == SLIP and q[-1] < 0.05
+    # free flight before the stop: x = F t² / (2 m)
+    reach = np.sqrt(2 * 10.0 * 0.05 / 5.0)
+    first = np.flatnonzero(mode == AT_UPPER)[0]
+    assert run.t[first] == pytest.approx(reach, abs=2e-3)
+    # after release: x = 0.05 - F (t - 1)² / (2 m); the release takes effect at the end of the
+    # step in which the force reversed (one step late), hence the tolerance F/m · t · dt
+    late = run.t > 1.0
+    np.testing.assert_allclose(q[late], 0.05 - 5.0 * (run.t[late] - 1.0) ** 2 / 20.0,
+                               atol=0.5 * 0.2 * 1e-3)
+
+
+def test_a_joint_with_stiction_at_a_limit_releases_into_stick() -> None:
+    """Leaving the stop is a release into STICK; it slips only when the pull exceeds Fc + Fs."""
+    spec = slider(HYBRID, limits=[-0.1, 0.0])
+    pull = ml.signals.step(50.0) - ml.signals.step(70.0, t0=0.5) - ml.signals.step(20.0, t0=1.0)
+    run = ml.simulate(spec, inputs={"x": pull}, duration=1.3)
+    mode, t = run["mode"][:, 0], run.t
+    assert np.all(mode[(t > 0.01) & (t < 0.5)] == AT_UPPER)
+    assert np.all(mode[(t > 0.51) & (t < 1.0)] == STICK)  # pulled by 20 N < 30 N
+    assert np.all(run.q[t < 1.0, 0] == 0.0)
+    assert mode[-1] == SLIP and run.q[-1, 0] < 0.0
+
+
+def test_erector_stuck_joint_stays_put_while_the_others_move() -> None:
+    """Valve steps on q1, q3 and q4; q2 stays stuck while q1 swings the arm around it."""
+    inputs = {"q1": ml.signals.step(0.3, t0=0.1), "q3": ml.signals.step(0.2, t0=0.1),
+              "q4": ml.signals.step(0.2, t0=0.1)}
+    spec = ml.builtin_spec("erector").with_overrides({"joints.q2.friction.static": 3e5})
+    run = ml.simulate(spec, inputs=inputs, duration=1.5, initial={"dP": "gravity"})
+    assert np.all(run.q[:, 1] == 0.0) and np.all(run["mode"][:, 1] == STICK)
+    assert np.ptp(run.q[:, 0]) > 0.05 and np.ptp(run.q[:, 2]) > 0.01
+    assert np.max(np.abs(run["tau_fric"][:, 1])) > 1e4  # it takes real force to hold it
+
+
+@pytest.mark.parametrize("stuck", [[1], [1, 3]])
+def test_stuck_joints_follow_the_constrained_dynamics(stuck) -> None:
+    """The free joints move as M_FF q̈_F = τ_F - b_F (with q̇_S = 0) and the stiction holds
+    M_SF q̈_F + b_S - τ_S: AnalyticModel.constrained_dynamics (derived independently of MuJoCo),
+    integrated by scipy, is the reference."""
+    names = [f"q{i + 1}" for i in range(6)]
+    overrides = {f"joints.{j}.actuator": {"type": "torque"} for j in names}
+    overrides |= {f"joints.{j}.friction": {"model": "none"} for j in names}
+    overrides |= {f"joints.{j}.limits": None for j in names}
+    for i in stuck:
+        overrides[f"joints.{names[i]}.friction"] = {"model": "hybrid", "coulomb": 1e9}
+    spec = ml.builtin_spec("erector").with_overrides(overrides)
+    torque = np.array([4e4, 1e3, 5e3, 2e3, 500.0, 300.0])
+    q0 = np.array([0.2, -0.3, 0.4, 0.1, 0.05, -0.1])
+    run = ml.simulate(spec, inputs=dict(zip(names, torque)), duration=0.3, initial={"q": q0})
+    assert np.all(run.q[:, stuck] == q0[stuck])
+
+    model = ml.AnalyticModel(spec)
+    free = [i for i in range(6) if i not in stuck]
+
+    def rhs(_t: float, y: np.ndarray) -> np.ndarray:
+        q, qd = q0.copy(), np.zeros(6)
+        q[free], qd[free] = y[: len(free)], y[len(free):]
+        qdd = model.constrained_dynamics(q, qd, torque, stuck)[0]
+        return np.concatenate([qd[free], qdd[free]])
+
+    y0 = np.concatenate([q0[free], np.zeros(len(free))])
+    ref = solve_ivp(rhs, (0.0, 0.3), y0, method="DOP853", rtol=1e-11, atol=1e-13, t_eval=run.t)
+    np.testing.assert_allclose(run.q[:, free], ref.y[: len(free)].T, rtol=1e-6, atol=1e-9)
+    np.testing.assert_allclose(run.qd[:, free], ref.y[len(free):].T, rtol=1e-5, atol=1e-8)
+    for k in (0, 150, 298):  # the step's holding force: the average of its ends' (trapezoid)
+        ends = [model.constrained_dynamics(run.q[i], run.qd[i], torque, stuck)[1]
+                for i in (k, k + 1)]
+        np.testing.assert_allclose(run["tau_fric"][k, stuck], (0.5 * (ends[0] + ends[1]))[stuck],
+                                   rtol=1e-4)
