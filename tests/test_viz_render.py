@@ -1,5 +1,5 @@
-"""Rendered videos: frame count and size read back from the file, frames follow the motion, grid tiles
-equal single renders, joint-state colours exactly where the run has the state, the CLI.
+"""Rendered videos: frame count and size read back from the file, frames follow the motion, grid
+tiles equal single renders, joint-state colours exactly where the run has the state, the CLI.
 
 These tests need an OpenGL backend: ``MUJOCO_GL`` as set, else ``egl`` (Mesa's software renderer
 runs without display or GPU). Where none can start they are skipped with the reason. Frames are
@@ -139,6 +139,8 @@ def test_named_cameras_and_plot_strip() -> None:
     run = scripted("planar2", planar_wave, 1.0)
     for camera in ("track", "overview"):
         assert ml.render(run, width=W, height=H, fps=5, camera=camera).shape == (6, H, W, 3)
+    smooth, jagged = (ml.render(run, width=W, height=H, fps=5, antialias=a) for a in (True, False))
+    assert not np.array_equal(smooth, jagged) and np.mean(np.abs(smooth - jagged.astype(int))) < 3
     frames = ml.render(run, width=W, height=H, fps=5, plot="q:q2")
     strip = frames[:, H - strip_height(H, "q"):]
     assert not np.array_equal(strip[0], strip[-1])  # the cursor moves

@@ -14,7 +14,7 @@ from maniplab.viz.gl import RenderError
 
 
 def ramp(count: int, height: int = 48, width: int = 64) -> np.ndarray:
-    """Frames whose brightness grows with the frame index; uint8, shape (count, height, width, 3)."""
+    """Frames that brighten with the frame index; uint8, shape (count, height, width, 3)."""
     levels = np.linspace(20, 235, count).astype(np.uint8)
     return np.broadcast_to(levels[:, None, None, None], (count, height, width, 3)).copy()
 

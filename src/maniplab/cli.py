@@ -102,6 +102,8 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("--plot", metavar="SIGNAL[:COLUMN]",
                         help="a strip of one signal under the animation, e.g. q:q2, dP:q1, ee_pos:z")
     render.add_argument("--shadows", action="store_true", help="draw shadows (about 2x slower)")
+    render.add_argument("--no-antialias", dest="antialias", action="store_false",
+                        help="no multisampling: jagged edges, about 2x faster")
     render.add_argument("--no-trace", dest="trace", action="store_false",
                         help="do not trace the end-effector's path")
     render.add_argument("--no-text", dest="text", action="store_false",
@@ -190,7 +192,8 @@ def _cmd_render(args: argparse.Namespace) -> int:
     check_format(output, args.width, args.height)
     runs = [Run.load(path) for path in args.runs]
     options = {"width": args.width, "height": args.height, "fps": args.fps,
-               "camera": args.camera, "shadows": args.shadows, "trace": args.trace,
+               "camera": args.camera, "shadows": args.shadows, "antialias": args.antialias,
+               "trace": args.trace,
                "text": args.text, "plot": args.plot}
     if kind == "grid":
         frames = viz.iter_grid(runs, cols=args.cols, **options)

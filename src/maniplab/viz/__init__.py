@@ -1,4 +1,4 @@
-"""Offscreen animation of runs: videos of one run, grids and overlays of several, written to MP4/GIF.
+"""Offscreen animation of runs: videos of one run, grids and overlays of several, as MP4 or GIF.
 
 Rendering samples the stored states of a :class:`~maniplab.sim.run.Run` at the video's frame rate
 (nothing is simulated again) and draws them with MuJoCo's OpenGL renderer, offscreen: with

@@ -1,4 +1,4 @@
-"""One arm in a scene: its model and data, posed at a frame's joint positions and coloured by state."""
+"""One arm in a scene: its model and data, posed at a frame's joint positions, coloured by state."""
 
 from __future__ import annotations
 

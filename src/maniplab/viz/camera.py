@@ -76,7 +76,7 @@ def _swept(arm: ArmView, q: np.ndarray) -> np.ndarray:
 
 
 def place(arm: ArmView, framing: Framing, aspect: float) -> int:
-    """Put ``arm``'s automatic camera where ``framing`` fits an image of ``aspect`` (width / height).
+    """Place ``arm``'s automatic camera so ``framing`` fits an image of ``aspect`` (width/height).
 
     Returns:
         The camera's id.
@@ -106,7 +106,8 @@ def _camera_axes(back: np.ndarray, up: np.ndarray) -> tuple[np.ndarray, np.ndarr
     return np.cross(y, z), y, z
 
 
-def resolve(camera: str | Framing, arms: Sequence[ArmView], aspect: float) -> list[mujoco.MjvCamera]:
+def resolve(camera: str | Framing, arms: Sequence[ArmView],
+            aspect: float) -> list[mujoco.MjvCamera]:
     """One MjvCamera per arm for ``camera``: a :class:`Framing` or a model camera's name.
 
     Raises:

@@ -1,4 +1,4 @@
-"""A canvas: an offscreen OpenGL context and MuJoCo's render context for one model and image size."""
+"""A canvas: an offscreen OpenGL context and MuJoCo's render context for one model and size."""
 
 from __future__ import annotations
 
@@ -22,18 +22,21 @@ class Canvas:
             enlarged in place when smaller than the image.
         width: image width, pixels.
         height: image height, pixels.
+        samples: multisamples per pixel (antialiasing); 0 for none.
 
     Raises:
         RenderError: no OpenGL backend can start, or the size is not positive.
     """
 
-    def __init__(self, model: mujoco.MjModel, width: int, height: int) -> None:
+    def __init__(self, model: mujoco.MjModel, width: int, height: int, samples: int = 4) -> None:
         if width < 1 or height < 1:
-            raise RenderError(f"image size {width}x{height} is empty; width and height must be >= 1")
+            raise RenderError(f"image size {width}x{height} is empty; width and height must be "
+                              ">= 1")
         self.width, self.height = width, height
         model.vis.global_.offwidth = max(model.vis.global_.offwidth, width)
         model.vis.global_.offheight = max(model.vis.global_.offheight, height)
         model.vis.quality.shadowsize = SHADOW_MAP
+        model.vis.quality.offsamples = samples
         self._gl: GLContext | None = open_context(width, height)
         try:
             self._mjr: mujoco.MjrContext | None = mujoco.MjrContext(

@@ -24,7 +24,8 @@ from maniplab.viz.camera import AUTO, Framing, frame_motions
 from maniplab.viz.frames import FrameStream, collect
 from maniplab.viz.gl import RenderError
 from maniplab.viz.plot_strip import PlotStrip, select
-from maniplab.viz.render import Look, check_size, state_key, strip_height
+from maniplab.viz.look import Look
+from maniplab.viz.render import check_size, state_key, strip_height
 from maniplab.viz.scene import SceneView
 from maniplab.viz.timeline import Motion, frame_times, run_span, sample
 
@@ -140,12 +141,11 @@ class Grid:
         modes = np.concatenate([m.modes for m in motions], axis=1)
         self.key = state_key(modes, size) if look.text else None
         self.strip = _strip(runs, look.plot, width, layout.strip, t0, t1)
-        camera = _shared_camera(look.camera, motions)
+        look = dataclasses.replace(look, camera=_shared_camera(look.camera, motions))
         self.views: list[SceneView] = []
         try:
             for motion in motions:
-                self.views.append(SceneView([motion], layout.tile_width, layout.tile_height,
-                                            camera, shadows=look.shadows, trace=look.trace))
+                self.views.append(SceneView([motion], layout.tile_width, layout.tile_height, look))
         except BaseException:
             self.close()
             raise
@@ -175,8 +175,8 @@ class Grid:
 
 def render_grid(runs: Sequence[Run], *, width: int = 1280, height: int = 720, fps: float = 30.0,
                 camera: str | Framing = AUTO, cols: int | None = None, shadows: bool = False,
-                trace: bool = True, text: bool = True, plot: str | None = None,
-                progress: bool | None = None) -> np.ndarray:
+                antialias: bool = True, trace: bool = True, text: bool = True,
+                plot: str | None = None, progress: bool | None = None) -> np.ndarray:
     """Frames of a video with one tile per run, side by side, each captioned with what differs.
 
     Args:
@@ -188,6 +188,7 @@ def render_grid(runs: Sequence[Run], *, width: int = 1280, height: int = 720, fp
             (:func:`frame_runs`).
         cols: tiles per row (default: the layout with the largest tiles).
         shadows: draw shadows.
+        antialias: smooth edges (4x multisampling).
         trace: draw each end-effector's path.
         text: a top bar with the time stamp and the joint-state key.
         plot: a strip of one signal under the tiles, a curve per run in its colour ("q:q2").
@@ -198,16 +199,18 @@ def render_grid(runs: Sequence[Run], *, width: int = 1280, height: int = 720, fp
         ``render(runs[k], camera=frame_runs(runs, fps), text=False)`` at the tile's size
         (:func:`grid_layout`).
     """
-    grid = Grid(runs, width, height, fps, Look(camera, shadows, trace, text, plot), cols)
+    look = Look(camera, shadows, antialias, trace, text, plot)
+    grid = Grid(runs, width, height, fps, look, cols)
     return collect(grid, f"rendering {len(grid.views)} runs", progress)
 
 
 def iter_grid(runs: Sequence[Run], *, width: int = 1280, height: int = 720, fps: float = 30.0,
               camera: str | Framing = AUTO, cols: int | None = None, shadows: bool = False,
-              trace: bool = True, text: bool = True, plot: str | None = None,
-              progress: bool | None = None) -> FrameStream:
+              antialias: bool = True, trace: bool = True, text: bool = True,
+              plot: str | None = None, progress: bool | None = None) -> FrameStream:
     """The frames of :func:`render_grid` one at a time."""
-    grid = Grid(runs, width, height, fps, Look(camera, shadows, trace, text, plot), cols)
+    look = Look(camera, shadows, antialias, trace, text, plot)
+    grid = Grid(runs, width, height, fps, look, cols)
     return FrameStream(grid, f"rendering {len(grid.views)} runs", progress)
 
 
@@ -238,9 +241,8 @@ class Overlay:
         modes = np.concatenate([m.modes for m in motions], axis=1)
         self.key = state_key(modes, size) if look.text else None
         self.strip = _strip(runs, look.plot, width, strip, t0, t1)
-        camera = _shared_camera(look.camera, motions)
-        self.view = SceneView(motions, width, self.view_height, camera, shadows=look.shadows,
-                              trace=look.trace)
+        look = dataclasses.replace(look, camera=_shared_camera(look.camera, motions))
+        self.view = SceneView(motions, width, self.view_height, look)
 
     def compose(self, k: int, out: np.ndarray) -> None:
         """Draw frame ``k`` into ``out`` (uint8, shape (height, width, 3))."""
@@ -262,8 +264,8 @@ class Overlay:
 
 def render_overlay(runs: Sequence[Run], *, width: int = 1280, height: int = 720,
                    fps: float = 30.0, camera: str | Framing = AUTO, shadows: bool = False,
-                   trace: bool = True, text: bool = True, plot: str | None = None,
-                   progress: bool | None = None) -> np.ndarray:
+                   antialias: bool = True, trace: bool = True, text: bool = True,
+                   plot: str | None = None, progress: bool | None = None) -> np.ndarray:
     """Frames of a video with all runs in one scene: the first solid, the others as ghosts.
 
     Each variant is a translucent ghost in its run colour (the key at the top right names what
@@ -273,16 +275,18 @@ def render_overlay(runs: Sequence[Run], *, width: int = 1280, height: int = 720,
     Returns:
         uint8 RGB frames, shape (F, height, width, 3).
     """
-    overlay = Overlay(runs, width, height, fps, Look(camera, shadows, trace, text, plot))
+    look = Look(camera, shadows, antialias, trace, text, plot)
+    overlay = Overlay(runs, width, height, fps, look)
     return collect(overlay, f"rendering {len(runs)} runs", progress)
 
 
 def iter_overlay(runs: Sequence[Run], *, width: int = 1280, height: int = 720,
                  fps: float = 30.0, camera: str | Framing = AUTO, shadows: bool = False,
-                 trace: bool = True, text: bool = True, plot: str | None = None,
-                 progress: bool | None = None) -> FrameStream:
+                 antialias: bool = True, trace: bool = True, text: bool = True,
+                 plot: str | None = None, progress: bool | None = None) -> FrameStream:
     """The frames of :func:`render_overlay` one at a time."""
-    overlay = Overlay(runs, width, height, fps, Look(camera, shadows, trace, text, plot))
+    look = Look(camera, shadows, antialias, trace, text, plot)
+    overlay = Overlay(runs, width, height, fps, look)
     return FrameStream(overlay, f"rendering {len(runs)} runs", progress)
 
 

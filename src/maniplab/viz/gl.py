@@ -29,7 +29,7 @@ _ADVICE = (
 
 
 class RenderError(ManiplabError):
-    """A video cannot be rendered or written (no OpenGL backend, bad camera or size, ffmpeg failed)."""
+    """A video cannot be rendered or written (no OpenGL, a bad camera or size, ffmpeg failed)."""
 
 
 class GLContext(Protocol):

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 
 from maniplab.sim.run import Run
@@ -12,6 +10,7 @@ from maniplab.viz import palette
 from maniplab.viz.camera import AUTO, Framing
 from maniplab.viz.frames import FrameStream, collect
 from maniplab.viz.gl import RenderError
+from maniplab.viz.look import Look
 from maniplab.viz.plot_strip import PlotStrip, select
 from maniplab.viz.scene import SceneView
 from maniplab.viz.timeline import frame_times, run_span, sample
@@ -20,20 +19,10 @@ STRIP = 0.25
 """Height of the plot strip, fraction of the frame height."""
 
 
-@dataclasses.dataclass(frozen=True)
-class Look:
-    """How a video looks; the fields are the keyword arguments of :func:`render`."""
-
-    camera: str | Framing = AUTO
-    shadows: bool = False
-    trace: bool = True
-    text: bool = True
-    plot: str | None = None
-
-
 def render(run: Run, *, width: int = 1280, height: int = 720, fps: float = 30.0,
-           camera: str | Framing = AUTO, shadows: bool = False, trace: bool = True,
-           text: bool = True, plot: str | None = None, progress: bool | None = None) -> np.ndarray:
+           camera: str | Framing = AUTO, shadows: bool = False, antialias: bool = True,
+           trace: bool = True, text: bool = True, plot: str | None = None,
+           progress: bool | None = None) -> np.ndarray:
     """Frames of a video of ``run``, sampled from its stored states (nothing is simulated).
 
     Args:
@@ -44,6 +33,8 @@ def render(run: Run, *, width: int = 1280, height: int = 720, fps: float = 30.0,
         camera: "auto" (frames the whole motion), a camera of the model ("track" follows the arm's
             centre of mass, "overview" is fixed), or a :class:`~maniplab.viz.camera.Framing`.
         shadows: draw shadows (about half the frame rate on a software renderer).
+        antialias: smooth edges by 4x multisampling (without it, about 2.5x the frame rate on a
+            software renderer, with jagged edges).
         trace: draw the end-effector's path.
         text: draw the time stamp (top left) and the key to the joint-state colours (bottom left).
         plot: draw a strip of one signal under the animation, "SIGNAL" or "SIGNAL:COLUMN"
@@ -56,16 +47,16 @@ def render(run: Run, *, width: int = 1280, height: int = 720, fps: float = 30.0,
     Raises:
         RenderError: no OpenGL backend can start, an unknown camera or signal, a bad size or fps.
     """
-    look = Look(camera, shadows, trace, text, plot)
+    look = Look(camera, shadows, antialias, trace, text, plot)
     return collect(SingleRun(run, width, height, fps, look), f"rendering {run.label}", progress)
 
 
 def iter_frames(run: Run, *, width: int = 1280, height: int = 720, fps: float = 30.0,
-                camera: str | Framing = AUTO, shadows: bool = False, trace: bool = True,
-                text: bool = True, plot: str | None = None,
+                camera: str | Framing = AUTO, shadows: bool = False, antialias: bool = True,
+                trace: bool = True, text: bool = True, plot: str | None = None,
                 progress: bool | None = None) -> FrameStream:
     """The frames of :func:`render` one at a time (for long videos: memory stays at one frame)."""
-    look = Look(camera, shadows, trace, text, plot)
+    look = Look(camera, shadows, antialias, trace, text, plot)
     return FrameStream(SingleRun(run, width, height, fps, look), f"rendering {run.label}",
                        progress)
 
@@ -114,8 +105,7 @@ class SingleRun:
         self.font = text.font_size(self.view_height)
         self.text = look.text
         self.key = state_key(motion.modes, self.font) if look.text else None
-        self.view = SceneView([motion], width, self.view_height, look.camera,
-                              shadows=look.shadows, trace=look.trace)
+        self.view = SceneView([motion], width, self.view_height, look)
 
     def compose(self, k: int, out: np.ndarray) -> None:
         """Draw frame ``k`` into ``out`` (uint8, shape (height, width, 3))."""

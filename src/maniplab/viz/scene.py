@@ -16,6 +16,7 @@ from maniplab.viz import camera as cameras
 from maniplab.viz import palette
 from maniplab.viz.arm import ArmView
 from maniplab.viz.canvas import Canvas
+from maniplab.viz.look import Look
 from maniplab.viz.timeline import Motion
 from maniplab.viz.trail import Trail, line_width, max_segments
 
@@ -31,18 +32,15 @@ class SceneView:
         motions: the runs at the video's frames; the first is opaque, the others are ghosts.
         width: image width, pixels.
         height: image height, pixels.
-        camera: "auto", a :class:`~maniplab.viz.camera.Framing`, or a model camera's name.
-        shadows: draw shadows (about twice the time per frame on a software renderer).
-        trace: draw the end-effector's path.
+        look: camera, shadows, antialiasing and path (its text and plot fields are not used here).
 
     Raises:
         RenderError: no OpenGL backend, or an unknown camera.
     """
 
-    def __init__(self, motions: Sequence[Motion], width: int, height: int,
-                 camera: str | cameras.Framing = cameras.AUTO, *, shadows: bool = False,
-                 trace: bool = True) -> None:
+    def __init__(self, motions: Sequence[Motion], width: int, height: int, look: Look) -> None:
         self.motions = list(motions)
+        camera = look.camera
         self.arms = [ArmView(m.run.spec) for m in self.motions]
         framing = camera if isinstance(camera, cameras.Framing) else None
         if camera == cameras.AUTO:
@@ -52,16 +50,17 @@ class SceneView:
         single = len(self.motions) == 1
         self.trails = [Trail(scale, line_width(height),
                              palette.PATH if single else palette.run_colour(k))
-                       for k in range(len(self.motions))] if trace else []
+                       for k in range(len(self.motions))] if look.trace else []
         self.tints = [None] + [palette.run_colour(k) for k in range(1, len(self.motions))]
         self.option = mujoco.MjvOption()
         self.perturb = mujoco.MjvPerturb()
         maxgeom = sum(a.model.ngeom + a.model.nsite for a in self.arms) + _SPARE_GEOMS
         self.scene = mujoco.MjvScene(self.arms[0].model,
                                      maxgeom=maxgeom + len(self.trails) * max_segments())
-        self.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = shadows
-        self.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = False  # doubles the cost, adds little
-        self.canvas = Canvas(self.arms[0].model, width, height)
+        self.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = look.shadows
+        # reflections on the floor double the cost of a frame and add little
+        self.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = False
+        self.canvas = Canvas(self.arms[0].model, width, height, samples=look.samples)
         self._next = 0
 
     @property
