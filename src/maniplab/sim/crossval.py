@@ -32,8 +32,8 @@ def ideal(spec: ManipulatorSpec) -> ManipulatorSpec:
 
 
 def integrate_analytic(spec: ManipulatorSpec, inputs: Mapping[str, Signal], t: np.ndarray, *,
-                       q0: np.ndarray | None = None, method: str = "DOP853",
-                       rtol: float = 1e-10, atol: float = 1e-12) -> Run:
+                       q0: np.ndarray | None = None, hold: float | None = None,
+                       method: str = "DOP853", rtol: float = 1e-10, atol: float = 1e-12) -> Run:
     """Integrate M(q) q̈ + C q̇ + G = τ(t) with ``scipy.integrate.solve_ivp``.
 
     Args:
@@ -41,6 +41,9 @@ def integrate_analytic(spec: ManipulatorSpec, inputs: Mapping[str, Signal], t: n
         inputs: joint name -> force or torque signal of time, N or N·m (missing joints: 0).
         t: output times, s, shape (N,), starting at the initial time.
         q0: initial positions, shape (n,) (default zeros); the arm starts at rest.
+        hold: when given, each input is held constant over [k·hold, (k+1)·hold), s, as a plant
+            stepping with dt = hold applies it (the solver restarts at every hold boundary);
+            otherwise inputs are continuous.
         method, rtol, atol: solve_ivp's.
 
     Returns:
@@ -53,19 +56,42 @@ def integrate_analytic(spec: ManipulatorSpec, inputs: Mapping[str, Signal], t: n
     def tau(time: float) -> np.ndarray:
         return np.array([f(time) if f is not None else 0.0 for f in forces])
 
-    def rhs(time: float, x: np.ndarray) -> np.ndarray:
+    def rhs(time: float, x: np.ndarray, force: np.ndarray | None) -> np.ndarray:
         q, qd = x[:n], x[n:]
         m, bias = model.mass_and_bias(q, qd)
-        return np.concatenate([qd, np.linalg.solve(m, tau(time) - bias)])
+        return np.concatenate([qd, np.linalg.solve(m, (tau(time) if force is None else force) - bias)])
 
-    x0 = np.concatenate([np.zeros(n) if q0 is None else np.asarray(q0, float), np.zeros(n)])
-    sol = solve_ivp(rhs, (t[0], t[-1]), x0, method=method, t_eval=t, rtol=rtol, atol=atol)
-    if not sol.success:
-        raise ManiplabError(f"scipy {method} failed on the analytic model of {spec.name}: {sol.message}")
-    q, qd = sol.y[:n].T, sol.y[n:].T
+    t = np.asarray(t, dtype=float)
+    x = np.concatenate([np.zeros(n) if q0 is None else np.asarray(q0, float), np.zeros(n)])
+    held = hold is not None and any(f is not None for f in forces)
+    edges = _edges(t[0], t[-1], hold if held else None)
+    states = []
+    for k, (start, stop) in enumerate(zip(edges[:-1], edges[1:])):
+        sol = solve_ivp(rhs, (start, stop), x, method=method, rtol=rtol, atol=atol,
+                        args=(tau(start) if held else None,), dense_output=True)
+        if not sol.success:
+            raise ManiplabError(f"scipy {method} failed on the analytic model of {spec.name} "
+                                f"at t = {start:.4g} s: {sol.message}")
+        last = k == len(edges) - 2
+        inside = t[(t >= start - 1e-12) & ((t < stop - 1e-12) | last)]
+        if inside.size:
+            states.append(sol.sol(inside))
+        x = sol.y[:, -1]
+    y = np.hstack(states)
+    q, qd = y[:n].T, y[n:].T
     ee = model.fk(q)[:, :3, 3]
-    meta = {"label": f"analytic ({method})", "solver": method, "rtol": rtol, "atol": atol}
-    return Run(t=np.asarray(t), signals={"q": q, "qd": qd, "ee_pos": ee}, spec=spec, meta=meta)
+    meta = {"label": f"analytic ({method})", "solver": method, "rtol": rtol, "atol": atol,
+            "hold": hold}
+    return Run(t=t, signals={"q": q, "qd": qd, "ee_pos": ee}, spec=spec, meta=meta)
+
+
+def _edges(start: float, stop: float, hold: float | None) -> np.ndarray:
+    """Restart times of the solver: every hold boundary, or just the two ends."""
+    if hold is None:
+        return np.array([start, stop])
+    edges = start + hold * np.arange(int(round((stop - start) / hold)) + 1)
+    edges[-1] = stop
+    return edges
 
 
 @dataclasses.dataclass(frozen=True)
@@ -95,3 +121,32 @@ def compare_runs(mujoco: Run, analytic: Run) -> CrossValidation:
     k, j = np.unravel_index(np.argmax(deviation), deviation.shape)
     return CrossValidation(mujoco, analytic, float(deviation[k, j]),
                            mujoco.spec.joint_names[j], float(mujoco.t[k]))
+
+
+def crossvalidate(spec: ManipulatorSpec | str, *, inputs: Mapping[str, Signal] | None = None,
+                  duration: float = 5.0, q0: np.ndarray | None = None, dt: float | None = None,
+                  sample_dt: float = 0.01, method: str = "DOP853") -> CrossValidation:
+    """Simulate the arm with ideal actuators on the MuJoCo plant and as the analytic model
+    integrated by scipy, from rest at ``q0``, and compare joint positions.
+
+    Args:
+        spec: the arm (spec, file or built-in name); actuators become ideal force/torque sources,
+            friction and limits are removed (:func:`ideal`).
+        inputs: joint name -> force/torque signal (default none: the arm moves under gravity).
+        duration: simulated time, s.
+        q0: initial joint positions, shape (n,) (default zeros).
+        dt: the plant's step, s (default the plant's); inputs are held over each step on both sides.
+        sample_dt: comparison interval, s.
+        method: scipy solver (DOP853, Radau, RK45, LSODA, ...).
+    """
+    from maniplab.builtin import resolve_spec
+    from maniplab.sim.simulate import simulate
+
+    arm = ideal(resolve_spec(spec))
+    q0 = np.zeros(arm.n) if q0 is None else np.asarray(q0, dtype=float)
+    inputs = dict(inputs or {})
+    plant_run = simulate(arm, inputs=inputs, duration=duration, dt=dt, sample_dt=sample_dt,
+                         initial={"q": q0}, label="MuJoCo plant")
+    hold = float(plant_run.meta["dt"])
+    analytic_run = integrate_analytic(arm, inputs, plant_run.t, q0=q0, hold=hold, method=method)
+    return compare_runs(plant_run, analytic_run)

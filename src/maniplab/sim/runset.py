@@ -68,7 +68,7 @@ class RunSet:
         spec = ManipulatorSpec.from_dict(header["spec"])
         flat = params.flatten_spec(spec)
         flat.update({f"meta.{k}": v for k, v in header.get("meta", {}).items()
-                     if isinstance(v, (str, int, float, bool))})
+                     if k != "label" and isinstance(v, (str, int, float, bool))})
         return flat
 
     def differing(self) -> list[str]:

@@ -1,0 +1,153 @@
+"""Parameter sweeps: many variants of one arm simulated in parallel, stored as a RunSet.
+
+By default the variants run on local processes (``concurrent.futures.ProcessPoolExecutor``); any
+``concurrent.futures.Executor`` can be given instead, or a ``dask.distributed.Client`` for a
+cluster (its ``get_executor()`` is used). Runs travel back to the caller, which writes them, so
+workers need no shared disk. A variant that fails is reported with its parameters and does not
+stop the others.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import itertools
+import os
+import re
+import sys
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from tqdm import tqdm
+
+from maniplab.builtin import resolve_spec
+from maniplab.errors import ManiplabError
+from maniplab.sim.params import format_parameters
+from maniplab.sim.runset import Failure, RunSet
+from maniplab.sim.simulate import simulate
+from maniplab.spec import ManipulatorSpec
+
+Variants = Mapping[str, Sequence[Any]] | Sequence[Mapping[str, Any]]
+
+
+def variants(grid: Variants) -> list[dict[str, Any]]:
+    """The override dicts of a sweep.
+
+    Args:
+        grid: a mapping path -> values (the full grid, last key varying fastest) or a list of
+            override mappings (taken as they are).
+    """
+    if isinstance(grid, Mapping):
+        keys = list(grid)
+        for key in keys:
+            if isinstance(grid[key], (str, bytes)) or not isinstance(grid[key], Sequence):
+                raise ManiplabError(f"sweep values of {key!r} must be a list, got {grid[key]!r}")
+        return [dict(zip(keys, combo)) for combo in itertools.product(*(grid[k] for k in keys))]
+    return [dict(v) for v in grid]
+
+
+def sweep(spec: ManipulatorSpec | str | os.PathLike[str], grid: Variants, *,
+          out: str | os.PathLike[str], inputs: Mapping[str, Any] | None = None,
+          duration: float, executor: Any = None, processes: int | None = None,
+          progress: bool | None = None, **simulate_args: Any) -> RunSet:
+    """Simulate every variant of ``spec`` and store the runs in the folder ``out``.
+
+    Args:
+        spec: the base arm (spec, file or built-in name).
+        grid: ``{"end_effector.mass": [3000, 4000], "joints.q2.actuator.leakage": [1e-12, 1e-11]}``
+            (every combination) or a list of override mappings.
+        out: folder for the run files (``<index>_<parameters>.npz``; created if missing).
+        inputs: as for :func:`maniplab.simulate` (signals must be picklable: ``ml.signals`` are).
+        duration: simulated time per variant, s.
+        executor: a ``concurrent.futures.Executor`` or a ``dask.distributed.Client``; default a
+            process pool of ``processes`` workers (default: the machine's cores).
+        processes: workers of the default pool; 1 runs in this process.
+        progress: show a progress bar (default: when stderr is a terminal).
+        **simulate_args: more keyword arguments of :func:`maniplab.simulate` (dt, initial,
+            controller, sample_dt, ...).
+
+    Returns:
+        A RunSet of the stored runs, in variant order, with ``failures`` for the variants that
+        raised (their parameters and the one-line error).
+    """
+    base = resolve_spec(spec)
+    todo = variants(grid)
+    folder = Path(out)
+    folder.mkdir(parents=True, exist_ok=True)
+    job = _Job(base, dict(inputs or {}), duration, simulate_args)
+    paths: dict[int, Path] = {}
+    failures: list[Failure] = []
+    bar = tqdm(total=len(todo), desc=f"sweep {base.name}", unit="run", file=sys.stderr,
+               disable=not sys.stderr.isatty() if progress is None else not progress)
+    with _executor(executor, processes) as pool:
+        futures = {pool.submit(job, overrides): i for i, overrides in enumerate(todo)}
+        for future in cf.as_completed(futures):
+            i = futures[future]
+            run, error = future.result()
+            if run is None:
+                failures.append(Failure(todo[i], error))
+            else:
+                paths[i] = folder / f"{i:03d}_{_slug(todo[i])}.npz"
+                run.save(paths[i])
+            bar.update()
+    bar.close()
+    return RunSet([paths[i] for i in sorted(paths)], failures=failures)
+
+
+class _Job:
+    """One variant's simulation, picklable for worker processes; returns (run, None) or
+    (None, error message)."""
+
+    def __init__(self, base: ManipulatorSpec, inputs: dict[str, Any], duration: float,
+                 simulate_args: dict[str, Any]) -> None:
+        self.base, self.inputs, self.duration, self.args = base, inputs, duration, simulate_args
+
+    def __call__(self, overrides: dict[str, Any]) -> tuple[Any, str | None]:
+        try:
+            return simulate(self.base, overrides=overrides, inputs=self.inputs,
+                            duration=self.duration, label=format_parameters(overrides) or None,
+                            **self.args), None
+        except ManiplabError as exc:
+            return None, str(exc)
+        except Exception as exc:  # noqa: BLE001 - a worker's bug must not stop the other variants
+            return None, f"{exc.__class__.__name__}: {exc}"
+
+
+class _InProcess(cf.Executor):
+    """Runs submitted calls at once in this process (``processes=1``)."""
+
+    def submit(self, fn: Any, /, *args: Any, **kwargs: Any) -> cf.Future:
+        future: cf.Future = cf.Future()
+        future.set_result(fn(*args, **kwargs))
+        return future
+
+
+def _executor(executor: Any, processes: int | None) -> cf.Executor:
+    if executor is None:
+        if processes == 1:
+            return _InProcess()
+        return cf.ProcessPoolExecutor(max_workers=processes or os.cpu_count() or 1)
+    if hasattr(executor, "get_executor"):  # dask.distributed.Client
+        return _Borrowed(executor.get_executor())
+    if isinstance(executor, cf.Executor):
+        return _Borrowed(executor)
+    raise ManiplabError(f"executor must be a concurrent.futures.Executor or a "
+                        f"dask.distributed.Client, got {type(executor).__name__}")
+
+
+class _Borrowed(cf.Executor):
+    """A caller's executor, used but not shut down when the sweep ends."""
+
+    def __init__(self, inner: cf.Executor) -> None:
+        self.inner = inner
+
+    def submit(self, fn: Any, /, *args: Any, **kwargs: Any) -> cf.Future:
+        return self.inner.submit(fn, *args, **kwargs)
+
+    def shutdown(self, wait: bool = True, **kwargs: Any) -> None:
+        """Leave the caller's executor running."""
+
+
+def _slug(overrides: Mapping[str, Any]) -> str:
+    text = format_parameters(overrides).replace(", ", "_").replace(" ", "-")
+    return re.sub(r"[^A-Za-z0-9_.=+-]", "", text)[:80] or "base"

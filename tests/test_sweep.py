@@ -1,0 +1,102 @@
+"""Sweeps: the erector's payload x leakage grid behaves as physics says; failures are reported;
+the same call runs on a Dask cluster."""
+
+from __future__ import annotations
+
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import maniplab as ml
+from maniplab.sim.runset import RunSet
+from maniplab.sim.sweep import sweep, variants
+
+PAYLOADS = [3000.0, 4000.0, 5000.0]
+LEAKAGES = [1e-12, 1e-11]
+GRID = {"end_effector.mass": PAYLOADS, "joints.q2.actuator.leakage": LEAKAGES}
+
+
+@pytest.fixture(scope="module")
+def grid_runs(tmp_path_factory: pytest.TempPathFactory) -> RunSet:
+    """q2's valve opened to a constant 0.2 A at 0.1 s, pressures balanced against gravity at 0."""
+    return sweep("erector", GRID, out=tmp_path_factory.mktemp("sweep"), duration=3.0,
+                 inputs={"q2": ml.signals.step(0.2, t0=0.1)}, initial={"dP": "gravity"},
+                 processes=2)
+
+
+def by_params(runs: RunSet) -> dict[tuple[float, float], ml.Run]:
+    return {(r.spec.end_effector.mass, r.spec.joint("q2").actuator.leakage): r for r in runs}
+
+
+def dominant_frequency(t: np.ndarray, x: np.ndarray) -> float:
+    """Frequency (Hz) of the largest oscillation in x after removing a quadratic trend."""
+    x = (x - np.polyval(np.polyfit(t, x, 2), t)) * np.hanning(len(x))
+    pad = 16 * len(x)  # zero padding: 1/16 of the raw FFT bin
+    spectrum = np.abs(np.fft.rfft(x, pad))
+    freqs = np.fft.rfftfreq(pad, t[1] - t[0])
+    band = freqs > 0.5
+    return float(freqs[band][np.argmax(spectrum[band])])
+
+
+def test_grid_gives_every_variant(grid_runs: RunSet) -> None:
+    assert len(grid_runs) == 6 and not grid_runs.failures
+    assert sorted(by_params(grid_runs)) == [(m, le) for m in PAYLOADS for le in LEAKAGES]
+    assert grid_runs.differing() == ["joints.q2.actuator.leakage", "end_effector.mass"]
+
+
+def test_heavier_payload_needs_more_pressure_and_oscillates_slower(grid_runs: RunSet) -> None:
+    runs = by_params(grid_runs)
+    for leakage in LEAKAGES:
+        moving = [runs[(m, leakage)] for m in PAYLOADS]
+        pressure = [np.mean(r["dP"][r.t > 0.1, 1]) for r in moving]
+        frequency = [dominant_frequency(r.t[r.t > 0.1], r["dP"][r.t > 0.1, 1]) for r in moving]
+        assert pressure[0] < pressure[1] < pressure[2], pressure
+        assert frequency[0] > frequency[1] > frequency[2], frequency
+
+
+def test_more_leakage_leaves_a_larger_error_under_constant_valve_current(grid_runs) -> None:
+    runs = by_params(grid_runs)
+    for mass in PAYLOADS:
+        tight, leaky = runs[(mass, 1e-12)], runs[(mass, 1e-11)]
+        # the same valve current moves the tight cylinder further: leakage eats the flow
+        assert leaky.q[-1, 1] < tight.q[-1, 1]
+
+
+def test_failed_variant_is_reported_and_the_others_run(tmp_path: Path) -> None:
+    runs = sweep("planar2", [{"end_effector.mass": 1.0}, {"end_effector.masss": 2.0},
+                             {"end_effector.mass": 3.0}], out=tmp_path, duration=0.05, processes=1)
+    assert [r.spec.end_effector.mass for r in runs] == [1.0, 3.0]
+    assert len(runs.failures) == 1
+    failure = runs.failures[0]
+    assert failure.parameters == {"end_effector.masss": 2.0}
+    assert "did you mean 'mass'" in failure.error
+
+
+def test_any_executor_and_list_of_variants(tmp_path: Path) -> None:
+    with ThreadPoolExecutor(2) as pool:
+        runs = sweep("planar2", [{"joints.q1.body.mass": m} for m in (1.0, 2.0)], out=tmp_path,
+                     duration=0.1, executor=pool, inputs={"q1": ml.signals.constant(5.0)})
+        assert not pool._shutdown  # the caller's executor is left running
+    assert [r.spec.joint("q1").body.mass for r in runs] == [1.0, 2.0]
+    # a heavier link accelerates less under the same torque
+    assert runs[0].q[-1, 0] > runs[1].q[-1, 0]
+
+
+def test_grid_is_the_full_product() -> None:
+    combos = variants({"a": [1, 2], "b": [10, 20, 30]})
+    assert combos[:2] == [{"a": 1, "b": 10}, {"a": 1, "b": 20}] and len(combos) == 6
+    with pytest.raises(ml.ManiplabError, match="must be a list"):
+        variants({"a": 1.0})
+
+
+def test_runs_on_a_local_dask_cluster(tmp_path: Path) -> None:
+    import distributed  # the test extra installs it
+    cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                       dashboard_address=None, silence_logs=40)
+    with cluster, distributed.Client(cluster) as client:
+        runs = sweep("planar2", {"end_effector.mass": [0.5, 1.5]}, out=tmp_path, duration=0.1,
+                     executor=client, inputs={"q2": ml.signals.constant(1.0)})
+    assert [r.spec.end_effector.mass for r in runs] == [0.5, 1.5]
+    assert not runs.failures
