@@ -134,7 +134,7 @@ class HydraulicBank:
         self._flow = flows
 
     def finish(self, q0: Sequence[float], q1: Sequence[float], act0: Sequence[float],
-               u: Sequence[float], act1: list[float]) -> None:
+               u: Sequence[float], act1: list[float]) -> bool:
         """Write (ΔP, Q) at the step's end into ``act1``.
 
         Args:
@@ -142,7 +142,11 @@ class HydraulicBank:
             act0: activations at the step's start (as given to :meth:`prepare`).
             u: the commands of the step.
             act1: activations to update.
+
+        Returns:
+            False if a pressure left ±PRESSURE_LIMIT × Ps (or is NaN): the run is unstable.
         """
+        sane = True
         for (j, a, area, _, _, gain_v, inv_ps, decay, gain, valve_decay, memory, _, dt), flow in zip(
                 self._constants, self._flow):
             p, f = act0[a], act0[a + 1]
@@ -151,8 +155,11 @@ class HydraulicBank:
             mid = 0.5 * (p + held + gain * (flow - swept))
             root = 1.0 - abs(mid) * inv_ps
             target = u[j] * gain_v * math.sqrt(root) if root > 0.0 else 0.0
-            act1[a] = held + gain * (target * dt + (f - target) * memory - swept)
+            p1 = held + gain * (target * dt + (f - target) * memory - swept)
+            act1[a] = p1
             act1[a + 1] = target + (f - target) * valve_decay
+            sane = sane and abs(p1) * inv_ps <= PRESSURE_LIMIT
+        return sane
 
 
 @dataclasses.dataclass(frozen=True)

@@ -41,7 +41,7 @@ import mujoco
 import numpy as np
 
 from maniplab.actuators.automaton import transitions
-from maniplab.actuators.friction import HybridFriction, slip_force, sticks
+from maniplab.actuators.friction import HybridFriction, slip_force
 from maniplab.actuators.hydraulic import PRESSURE_LIMIT, HydraulicBank, HydraulicCylinder
 from maniplab.actuators.limits import JointLimits
 from maniplab.actuators.lugre import LuGreBristles, LuGreFriction
@@ -115,8 +115,9 @@ class Plant:
         self._setup_friction()
         self._modes = [_SLIP] * self.n
         self._direction = [1.0] * self.n
-        self._tau_fric = [0.0] * self.n
-        self._tau_limit = [0.0] * self.n
+        self._no_limit = (0.0,) * self.n
+        self._tau_applied = self._tau_limit = self._no_limit
+        self._v0 = [0.0] * self.n
         self._prepared = False
         self.reset()
 
@@ -159,6 +160,7 @@ class Plant:
             (i, adr[i], PRESSURE_LIMIT * self.actuators[i].params.supply_pressure)
             for i in cylinders
         ]
+        self._integrated_cylinders = [i for i in cylinders if not native[i]]
         self._integrated = [(i, a, i) for i, a in enumerate(self.actuators) if not native[i]]
 
     def _setup_friction(self) -> None:
@@ -166,7 +168,9 @@ class Plant:
         self.hybrid = HybridFriction(frictions)
         self.lugre = LuGreFriction(frictions)
         self.limits = JointLimits(self.spec.joints)
-        self._viscous = [f.viscous if f.model is not FrictionModel.none else 0.0 for f in frictions]
+        self.viscous = np.array([f.viscous if f.model is not FrictionModel.none else 0.0
+                                 for f in frictions])
+        """Viscous friction coefficient of each joint (0 without friction), (n,)."""
         joints, adrs = self.state_layout.get("z", ([], []))
         z_adr = {int(j): int(a) for j, a in zip(joints, adrs)}
         if self.route == "callbacks":  # MuJoCo integrates z (the generic, stiff way)
@@ -435,15 +439,18 @@ class Plant:
         self._prepared = False
         q0, v0, modes = self._q0, self._v0, self._modes
         q1, v1 = self._qpos.tolist(), self._qvel.tolist()
-        fric, limit = self._fric, [0.0] * self.n
+        fric, limit = self._fric, self._no_limit
         moved = bool(self._held)
         if moved:
+            limit = [0.0] * self.n
             self._release(q0, q1, v1, fric, limit)
-        for j, stick_velocity in self._sticky:
-            if modes[j] == _SLIP and sticks(v0[j], v1[j], stick_velocity):
-                v1[j] = 0.0
-                modes[j] = _STICK
-                moved = True
+        for j, stick_velocity in self._sticky:  # friction.sticks, inlined
+            if modes[j] == _SLIP:
+                a, b = v0[j], v1[j]
+                if a * b < 0.0 or (abs(b) < stick_velocity and abs(b) < abs(a)):
+                    v1[j] = 0.0
+                    modes[j] = _STICK
+                    moved = True
         for j, lower, upper in self._limited:
             x = q1[j]
             if x < lower:
@@ -457,18 +464,16 @@ class Plant:
             self._qvel[:] = v1
         if not math.isfinite(math.fsum(v1)):
             self._unstable_motion()
-        self._tau_fric = [f - c * v for f, c, v in zip(fric, self._viscous, v0)]
-        self._tau_limit = limit
+        self._tau_applied, self._tau_limit = fric, limit
         act = self._act.tolist()
-        if self._bank is not None:
-            self._bank.finish(q0, q1, self._act0, self._u, act)
+        if self._bank is not None and not self._bank.finish(q0, q1, self._act0, self._u, act):
+            self._check_pressures(act)
         for lugre, adr in self._lugre:
             j = lugre.joint
             act[adr] = lugre.advance(self._act0[adr], (q1[j] - q0[j]) / dt, dt)
         self._act[:] = act
-        for j, adr, bound in self._pressure_checks:
-            if not abs(act[adr]) <= bound:
-                self._unstable_pressure(j, act[adr], bound)
+        if self._integrated_cylinders:
+            self._check_pressures(act)
 
     def _release(self, q0: list[float], q1: list[float], v1: list[float], fric: list[float],
                  limit: list[float]) -> None:
@@ -501,9 +506,9 @@ class Plant:
 
     @property
     def tau_fric(self) -> np.ndarray:
-        """Friction force on each joint over the prepared step (stiction's holding force when
-        stuck, viscous part at the step's start included), N or N·m, (n,)."""
-        return np.array(self._tau_fric)
+        """Friction force on each joint over the last step (stiction's holding force when stuck,
+        viscous part at the step's start included), N or N·m, (n,)."""
+        return np.array(self._tau_applied) - self.viscous * np.array(self._v0)
 
     @property
     def tau_limit(self) -> np.ndarray:
@@ -515,6 +520,11 @@ class Plant:
         joint = self.joint_names[bad[0]] if bad.size else None
         raise InstabilityError("the joint velocity is not finite (NaN or infinity)",
                                time=self.t, joint=joint, dt=self.dt)
+
+    def _check_pressures(self, act: list[float]) -> None:
+        for joint, adr, bound in self._pressure_checks:
+            if not abs(act[adr]) <= bound:
+                self._unstable_pressure(joint, act[adr], bound)
 
     def _unstable_pressure(self, joint: int, pressure: float, bound: float) -> None:
         raise InstabilityError(
