@@ -104,11 +104,10 @@ def test_limits_hold_and_release() -> None:
     reach = np.sqrt(2 * 10.0 * 0.05 / 5.0)
     first = np.flatnonzero(mode == AT_UPPER)[0]
     assert run.t[first] == pytest.approx(reach, abs=2e-3)
-    # after release: x = 0.05 - F (t - 1)² / (2 m); the release takes effect at the end of the
-    # step in which the force reversed (one step late), hence the tolerance F/m · t · dt
+    # after release at once (the joint's own force reversed): x = 0.05 - F (t - 1)² / (2 m)
     late = run.t > 1.0
     np.testing.assert_allclose(q[late], 0.05 - 5.0 * (run.t[late] - 1.0) ** 2 / 20.0,
-                               atol=0.5 * 0.2 * 1e-3)
+                               atol=1e-12)
 
 
 def test_a_joint_with_stiction_at_a_limit_releases_into_stick() -> None:

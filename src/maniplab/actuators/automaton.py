@@ -2,7 +2,8 @@
 
 After each step the plant knows the force that held each held joint still over the step (the
 paper's eq. 8: the stuck joints' part of the constrained dynamics, see
-:class:`~maniplab.sim.plant.Plant`). :func:`transitions` applies the rules:
+:class:`~maniplab.sim.plant.Plant`); before a step it predicts it from the change of the joint's
+own actuator force. :func:`transitions` applies the rules:
 
 - AT_UPPER is released when the stop had to pull (hold > 0), AT_LOWER when hold < 0; the joint
   becomes STICK if it has stick/slip friction (it may still be held by stiction), else SLIP;

@@ -5,28 +5,41 @@ One step of length dt (the paper's template plant, its Fig. 5):
 1. **prepare** (at t): the commands are clipped and written to ``ctrl``; native hydraulic
    actuators get the affine force ``b0 - k q`` of the coming step; slipping joints get their
    Coulomb/Stribeck friction and LuGre joints their bristle force (held over the step, in
-   ``qfrc_applied``). If any joint is held (STICK, AT_LOWER, AT_UPPER), MuJoCo's forward dynamics
-   gives the accelerations without holding forces and ``mj_solveM`` the block (M⁻¹)_HH; the
-   holding forces h = -(M⁻¹)_HH⁻¹ a make q̈_H = 0 exactly at t, and the automaton
-   (:mod:`~maniplab.actuators.automaton`) releases joints whose holding force breaks away or
-   pulls on a stop.
+   ``qfrc_applied``); held joints (STICK, AT_LOWER, AT_UPPER) whose own actuator force changed
+   are released at once if their new holding force calls for it (see :meth:`Plant._predict`); the
+   held joints are made immovable for MuJoCo (:meth:`Plant._arm`).
 2. **advance**: ``mj_step`` (RK4 by default) integrates q, q̇ and every MuJoCo-integrated state
-   (plugin states on the callback route) with those forces; held joints are put back (q, q̇ = 0)
-   to remove the integrator's O(dt³) drift; slipping joints that reverse or slow below
-   ``stick_velocity`` stick; joints past a limit are put on it with zero velocity; the native
-   hydraulic states and LuGre's z are advanced with the step's exact displacement.
+   (plugin states on the callback route): the free joints move with the constrained dynamics of
+   the held set (the paper's eq. 8) and the holding forces come out of the step; the automaton
+   (:mod:`~maniplab.actuators.automaton`) releases joints whose holding force breaks away or
+   pulls on a stop; held joints are put back exactly (q, q̇ = 0); slipping joints that reverse or
+   slow below ``stick_velocity`` stick (velocity reset to 0); joints past a limit are put on it
+   with zero velocity; the native hydraulic states and LuGre's z are advanced with the step's
+   exact displacement; a non-finite velocity or a pressure beyond 10 Ps stops the run.
+
+Holding is exact, not a stiff spring: a held joint gets an armature of 1e12 times the arm's
+largest inertia, so MuJoCo's own factorisation of M solves the constrained dynamics (the free
+joints' accelerations M_FF⁻¹(τ_F - b_F) to ~1e-12 relative) in every RK4 stage, and the force that
+held the joint over the step is read back as -I Δq̇ / dt. That costs nothing beyond the step
+itself; computing it with an extra forward pass and a solve of (M⁻¹)_HH would about double the
+Python time of a step. Mode changes take effect at step boundaries (first order in the event
+times, like the paper's automaton).
 
 All actuator and friction states live in ``d.act`` (ΔP, Q of a cylinder; a plugin's states; LuGre's
 z in actuator ``<joint>/lugre``), so ``mj_getState(..., mjSTATE_ACT)``, resets and keyframes include
 them. The friction/limit modes are a function of that state (a held joint has q̇ = 0 exactly and
 sits on its limit, or has stick/slip friction), so :meth:`Plant.restore` recomputes them.
 
-Routes: on the **native** route (default) the torque source is MuJoCo's motor and the hydraulic
-cylinders are advanced by the vectorised :class:`~maniplab.actuators.hydraulic.HydraulicBank`; no
-MuJoCo callback is used. Plugin actuators (and every actuator with ``route="callbacks"``) are
-integrated by MuJoCo itself through ``mjcb_act_dyn``/``mjcb_act_bias``, installed only while the
-plant steps (:mod:`maniplab.sim.callbacks`). Measured on the erector (6 hydraulic joints, RK4,
-dt = 1 ms): ~35 µs per step natively against ~250 µs through Python callbacks (README).
+Routes: on the **native** route (default) the torque source is MuJoCo's motor, the hydraulic
+cylinders are advanced by :class:`~maniplab.actuators.hydraulic.HydraulicBank` and LuGre's z by
+an exact exponential update; no MuJoCo callback is used. Plugin actuators (and every actuator, and
+LuGre, with ``route="callbacks"``) are integrated by MuJoCo's RK4 itself through
+``mjcb_act_dyn``/``mjcb_act_bias``, installed only while the plant steps
+(:mod:`maniplab.sim.callbacks`). On the erector (6 hydraulic joints, RK4, dt = 1 ms) the native
+route costs about 3.5 bare ``mj_step`` per step, the callback route about 14 (README).
+
+The per-step work is plain Python over the joints' numbers: for the few joints of an arm that is
+several times faster than numpy, whose cost per call (~0.5 µs) exceeds the arithmetic.
 """
 
 from __future__ import annotations
@@ -109,6 +122,7 @@ class Plant:
         d = self.data  # views into the data, cached: each attribute access makes a new array
         self._qpos, self._qvel, self._act = d.qpos, d.qvel, d.act
         self._ctrl, self._applied = d.ctrl[: self.n], d.qfrc_applied
+        self._warm = d.qacc_warmstart
         self._layout_states()
         self._nan = np.full(self.n, np.nan)
         self._setup_actuators(native)
@@ -155,6 +169,13 @@ class Plant:
                                     joints=hj, adrs=[adr[i] for i in hj]) if hj else None)
         self._bias = self.model.actuator_biasprm[: self.n, 0]  # a view into the model
         self._b0 = [0.0] * self.n
+        self._spring = [0.0] * self.n
+        for j, k in zip(hj, self._bank.spring if self._bank else []):
+            self._spring[j] = k
+        self._own_kind = [
+            ("hydraulic" if j in hj else "torque" if native[j] else None)
+            for j in range(self.n)
+        ]
         cylinders = [i for i, a in enumerate(self.actuators) if isinstance(a, HydraulicCylinder)]
         self._pressure_checks = [
             (i, adr[i], PRESSURE_LIMIT * self.actuators[i].params.supply_pressure)
@@ -264,7 +285,8 @@ class Plant:
         self._resync()
 
     def save(self) -> np.ndarray:
-        """The full physics state (``mjSTATE_FULLPHYSICS | mjSTATE_CTRL``): time, q, q̇, act, ctrl."""
+        """The plant's state as ``mj_getState`` gives it: time, q, q̇, act, ctrl and the last
+        acceleration (``mjSTATE_FULLPHYSICS | mjSTATE_CTRL | mjSTATE_WARMSTART``)."""
         size = mujoco.mj_stateSize(self.model, _STATE)
         state = np.empty(size)
         mujoco.mj_getState(self.model, self.data, state, _STATE)
@@ -291,6 +313,7 @@ class Plant:
                 self.data.qvel[j] = 0.0
         self._modes = modes
         self._direction = [1.0] * self.n
+        self._last_hold: dict[int, tuple[float, float]] = {}
         self._prepared = False
 
     def states(self) -> dict[str, np.ndarray]:
@@ -394,11 +417,12 @@ class Plant:
         if self._bank is not None:
             self._bank.prepare(q0, act, u, self._b0)
             self._bias[:] = self._b0
+        self._u = u
+        if self._last_hold:
+            self._predict(q0)
         fric = [0.0] * n
-        direction = self._direction
-        for j, coulomb, static, stribeck in self._slip:
-            if modes[j] == _SLIP:
-                fric[j] = slip_force(v0[j], direction[j], coulomb, static, stribeck)
+        if self._slip:
+            self._slip_friction(v0, fric)
         for lugre, adr in self._lugre:
             j = lugre.joint
             fric[j] += lugre.force(act[adr], v0[j])
@@ -406,9 +430,73 @@ class Plant:
         held = [j for j in range(n) if modes[j] != _SLIP]
         if held != self._held:
             self._arm(held)
-        self._fric, self._u = fric, u
+        self._fric = fric
         self._q0, self._v0, self._act0 = q0, v0, act
         self._prepared = True
+
+    def _slip_friction(self, v0: list[float], fric: list[float]) -> None:
+        """Coulomb + Stribeck force of the slipping hybrid joints, held over the step.
+
+        It is evaluated at the step's predicted mid-point velocity v + a dt/2, with a the last
+        step's final acceleration (MuJoCo's ``qacc_warmstart``, part of the saved state), which
+        makes smooth slip phases second order in dt (a 1-DOF stick-slip run at dt = 2 ms: 1.2 mm
+        from the exact hybrid solution, against 3.2 mm at the step's start velocity). A velocity
+        that would change sign within the step is taken as half the start velocity.
+        """
+        modes, direction, half = self._modes, self._direction, 0.5 * self.dt
+        acc = self._warm.tolist()
+        for j, coulomb, static, stribeck in self._slip:
+            if modes[j] == _SLIP:
+                v = v0[j]
+                if v != 0.0:
+                    mid = v + half * acc[j]
+                    v = mid if mid * v > 0.0 else 0.5 * v
+                fric[j] = slip_force(v, direction[j], coulomb, static, stribeck)
+
+    def _own_force(self, j: int, q0: list[float]) -> float | None:
+        """The force joint j's own actuator puts on it over the prepared step, when known before
+        the step (native torque and hydraulic actuators), N or N·m."""
+        kind = self._own_kind[j]
+        if kind == "torque":
+            return self._u[j]
+        if kind == "hydraulic":
+            return self._b0[j] - self._spring[j] * q0[j]  # A ΔP at mid-step
+        return None
+
+    def _predict(self, q0: list[float]) -> None:
+        """Transitions of held joints decided before the step, from their own force's change.
+
+        A held joint's holding force changes by exactly minus any change of a force applied to
+        it (the constraint absorbs it; the free joints do not feel it). So when a joint's own
+        actuator force has changed since the last step, its new holding force is known before
+        stepping, and a break-away or release it causes takes effect at once instead of a step
+        late. Changes coming from the other joints are still seen after the step.
+        """
+        modes, breakaway = self._modes, self.hybrid.breakaway
+        joints, holds = [], []
+        change = False
+        for j, (hold, own) in self._last_hold.items():
+            mode = modes[j]
+            if mode == _SLIP:
+                continue
+            h = hold - (self._own_force(j, q0) - own)
+            joints.append(j)
+            holds.append(h)
+            if mode == _STICK:
+                change = change or abs(h) > breakaway[j]
+            else:
+                change = change or (h > 0.0 if mode == _UPPER else h < 0.0)
+        if not change:
+            return
+        new, direction = transitions([modes[j] for j in joints], holds,
+                                     [self.hybrid.breakaway[j] for j in joints],
+                                     [self.hybrid.can_stick[j] for j in joints])
+        for j, mode, sign in zip(joints, new, direction):
+            modes[j] = mode
+            if sign:
+                self._direction[j] = sign
+            if mode == _SLIP:
+                del self._last_hold[j]
 
     def _arm(self, held: list[int]) -> None:
         """Make the ``held`` joints immovable for MuJoCo: armature + HOLD_INERTIA on each.
@@ -494,15 +582,16 @@ class Plant:
             else:
                 limit[j] = h
                 change = change or (h > 0.0 if mode == _UPPER else h < 0.0)
-        if not change:
-            return
-        new, direction = transitions([modes[j] for j in held], hold,
-                                     [breakaway[j] for j in held],
-                                     [self.hybrid.can_stick[j] for j in held])
-        for j, mode, sign in zip(held, new, direction):
-            modes[j] = mode
-            if sign:
-                self._direction[j] = sign
+        if change:
+            new, direction = transitions([modes[j] for j in held], hold,
+                                         [breakaway[j] for j in held],
+                                         [self.hybrid.can_stick[j] for j in held])
+            for j, mode, sign in zip(held, new, direction):
+                modes[j] = mode
+                if sign:
+                    self._direction[j] = sign
+        self._last_hold = {j: (h, self._own_force(j, q0)) for j, h in zip(held, hold)
+                           if modes[j] != _SLIP and self._own_kind[j] is not None}
 
     @property
     def tau_fric(self) -> np.ndarray:
@@ -545,7 +634,8 @@ def _largest_inertia(model: mujoco.MjModel) -> float:
     return max(1.0, float(np.max(np.diag(dense))))
 
 
-_STATE = int(mujoco.mjtState.mjSTATE_FULLPHYSICS) | int(mujoco.mjtState.mjSTATE_CTRL)
+_STATE = (int(mujoco.mjtState.mjSTATE_FULLPHYSICS) | int(mujoco.mjtState.mjSTATE_CTRL)
+          | int(mujoco.mjtState.mjSTATE_WARMSTART))
 
 _INTEGRATORS = {
     "RK4": mujoco.mjtIntegrator.mjINT_RK4,
