@@ -492,13 +492,14 @@ class JointPIDGains:
 
     The PID output is a joint speed (rad/s or m/s) turned into valve current through the valve's
     no-load gain, i_v = u A / C; on a torque joint the output is scaled by the diagonal of M(q).
+    The defaults are the erector's tuned gains (grid search in examples/pid_baseline.py).
 
     Attributes:
         kp: 1/s.  ki: 1/s².  kd: dimensionless.
     """
 
-    kp: NonNegative = 4.0
-    ki: NonNegative = 2.0
+    kp: NonNegative = 3.0
+    ki: NonNegative = 96.0
     kd: NonNegative = 0.0
 
 
@@ -517,13 +518,15 @@ class ControlSpec:
         null_damping: joint damping in the task's null space (redundant arms), 1/s.
         capacity_weighting: share the motion among the joints in proportion to their top speed
             (weighted least squares, weights C i_max / A of each hydraulic joint).
-        coulomb_feedforward: add Fc tanh(q̇_ref / v_s) to G1's inverse dynamics.
+        coulomb_feedforward: add Fc tanh(q̇_ref / v_s) to G1's inverse dynamics (an extension
+            of the paper's G1 from the spec's friction parameters; it keeps joints from
+            sticking at the start of a move).
         valve_min_root: floor of sqrt(1 - |ΔP|/Ps) in G2's valve inversion.
         pressure: inner-loop gains.
         pid_only: gains of the PID-only baseline.
     """
 
-    rate: Positive = 1000.0
+    rate: Positive = 250.0
     task: Literal["position", "pose"] | None = None
     position: CartesianGains = CartesianGains(kp=400.0, ki=1000.0, kd=40.0)
     orientation: CartesianGains = CartesianGains(kp=400.0, ki=1000.0, kd=40.0)
@@ -532,7 +535,7 @@ class ControlSpec:
     dls_threshold: NonNegative = 0.05
     null_damping: NonNegative = 5.0
     capacity_weighting: Annotated[bool, Strict()] = True
-    coulomb_feedforward: Annotated[bool, Strict()] = False
+    coulomb_feedforward: Annotated[bool, Strict()] = True
     valve_min_root: Annotated[float, Strict(), Field(gt=0.0, le=1.0),
                               BeforeValidator(_number)] = 0.05
     pressure: PressureGains = PressureGains()

@@ -469,11 +469,11 @@ _SECTION_EXAMPLES = {
     "friction": "model: hybrid, coulomb: 100.0",
     "body": "length: 1.0, mass: 10.0",
     "end_effector": "mass: 500.0",
-    "control": "rate: 1000.0, position: {kp: 400.0, kd: 40.0}",
+    "control": "rate: 250.0, position: {kp: 400.0, kd: 40.0}",
     "position": "kp: 400.0, ki: 1000.0, kd: 40.0",
     "orientation": "kp: 400.0, ki: 1000.0, kd: 40.0",
     "pressure": "bandwidth: 40.0",
-    "pid_only": "kp: 4.0, ki: 2.0",
+    "pid_only": "kp: 3.0, ki: 96.0",
 }
 
 

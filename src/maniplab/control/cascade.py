@@ -254,7 +254,7 @@ class CascadeController:
     def signals_at(self, t: np.ndarray) -> dict[str, np.ndarray]:
         """The logged signals resampled at times ``t`` (zero-order hold), name -> (len(t), k).
 
-        Rows before the first controller sample are NaN.
+        Names are ``ctrl.<signal>``; rows before the first controller sample are NaN.
         """
         times = self.times
         idx = np.searchsorted(times, np.asarray(t) + 1e-12, side="right") - 1
@@ -265,3 +265,37 @@ class CascadeController:
             rows[idx < 0] = np.nan
             out[f"ctrl.{k}"] = rows
         return out
+
+    def settings(self) -> dict[str, Any]:
+        """What the controller was (JSON-friendly): mode, task, rate and every gain."""
+        return {
+            "mode": self.mode, "task": self.task, "rate": self.rate,
+            "model_payload": self.spec.end_effector.mass,
+            "gains": _plain(dataclasses.asdict(self.gains)),
+        }
+
+    def annotate(self, run: Any) -> Any:
+        """The run with the controller's log added: a new Run of the same type.
+
+        Signals ``x_d``, ``x``, ``e_x``, ``a_x``, ``qdd_d``, ``tau_d``, ``dP_d``, ``phi`` (see
+        ``LOG_SIGNALS``; the command is the run's own ``ctrl``) are resampled onto ``run.t``
+        (zero-order hold) and ``meta["control"]`` records :meth:`settings`.
+        """
+        extra = {k.removeprefix("ctrl."): v for k, v in self.signals_at(run.t).items()
+                 if k != "ctrl.cmd"}
+        clash = sorted(set(extra) & set(run.signals))
+        if clash:
+            raise ValueError(f"the run already has signals {clash}")
+        meta = {**dict(run.meta), "control": self.settings()}
+        return type(run)(t=run.t, signals={**run.signals, **extra}, spec=run.spec, meta=meta)
+
+
+def _plain(value: Any) -> Any:
+    """Enums, tuples and numpy scalars to JSON-friendly values."""
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    if hasattr(value, "value") and not isinstance(value, (int, float, str)):
+        return value.value
+    return value

@@ -23,7 +23,7 @@ class InverseDynamics:
         model: the analytic model (its masses and payload are the controller's *estimates*).
         coulomb: add the Coulomb friction feed-forward Fc tanh(q̇_ref / v_s) (Fc and v_s, the
             Stribeck velocity, from the spec's hybrid/LuGre friction); default off, as in the
-            paper's G1.
+            paper's G1 (the cascade's setting ``coulomb_feedforward`` turns it on).
     """
 
     def __init__(self, model: AnalyticModel, *, coulomb: bool = False) -> None:

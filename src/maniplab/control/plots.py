@@ -1,0 +1,101 @@
+"""Comparison plots of closed-loop runs against their reference (matplotlib, no display needed).
+
+One figure: the Cartesian position error of each run, the end-effector coordinates against the
+reference, and per moving hydraulic joint the differential pressure and the valve current.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from maniplab.control.trajectory import Trajectory
+
+_COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b")
+
+
+def _reference(trajectory: Trajectory, t: np.ndarray) -> np.ndarray:
+    return np.array([trajectory.sample(float(tk)).position for tk in t])
+
+
+def _moving_joints(runs: Sequence[Any], limit: int = 4) -> list[int]:
+    """Hydraulic joints that move most (by range of q), at most ``limit``, in joint order."""
+    span = np.zeros(runs[0].spec.n)
+    for run in runs:
+        q = np.asarray(run.q)
+        span = np.maximum(span, q.max(axis=0) - q.min(axis=0))
+    hyd = np.array([j.actuator.type == "hydraulic" for j in runs[0].spec.joints])
+    order = [int(i) for i in np.argsort(-span) if hyd[i] and span[i] > 1e-6][:limit]
+    return sorted(order)
+
+
+def tracking_figure(runs: Sequence[Any], trajectory: Trajectory,
+                    labels: Sequence[str] | None = None, title: str | None = None) -> Any:
+    """A matplotlib Figure comparing ``runs`` (``ml.Run``) with the reference ``trajectory``."""
+    from matplotlib.figure import Figure
+
+    if not runs:
+        raise ValueError("tracking_figure needs at least one run")
+    labels = list(labels or [r.label for r in runs])
+    joints = _moving_joints(runs)
+    ncol = max(len(joints), 1)
+    fig = Figure(figsize=(3.2 * max(ncol, 3), 9.0), layout="constrained")
+    grid = fig.add_gridspec(4, ncol)
+    ax_err = fig.add_subplot(grid[0, :])
+    ax_pos = fig.add_subplot(grid[1, :])
+    t_ref = np.asarray(runs[0].t)
+    ref = _reference(trajectory, t_ref)
+    for c, axis in enumerate("xyz"):
+        ax_pos.plot(t_ref, ref[:, c], "k--", lw=1.0, label="reference" if c == 0 else None)
+    for k, (run, label) in enumerate(zip(runs, labels)):
+        colour = _COLOURS[k % len(_COLOURS)]
+        t = np.asarray(run.t)
+        r = ref if len(t) == len(t_ref) and np.allclose(t, t_ref) else _reference(trajectory, t)
+        err = 1e3 * np.linalg.norm(run["ee_pos"] - r, axis=1)
+        ax_err.semilogy(t, np.maximum(err, 1e-4), color=colour, label=label)
+        for c in range(3):
+            ax_pos.plot(t, run["ee_pos"][:, c], color=colour, lw=1.0)
+        for col, j in enumerate(joints):
+            name = run.spec.joint_names[j]
+            ax_p = fig.add_subplot(grid[2, col]) if k == 0 else fig.axes[2 + 2 * col]
+            ax_i = fig.add_subplot(grid[3, col]) if k == 0 else fig.axes[3 + 2 * col]
+            ax_p.plot(t, run["dP"][:, j] / 1e6, color=colour)
+            if "dP_d" in run and k == 0:
+                ax_p.plot(t, run["dP_d"][:, j] / 1e6, color="k", lw=0.8, ls=":",
+                          label="ΔP_d (first run)")
+            ax_i.plot(t, run["iv"][:, j], color=colour)
+            ax_p.set_title(f"{name}: ΔP [MPa]")
+            ax_i.set_title(f"{name}: valve current [A]")
+            ax_i.set_xlabel("t [s]")
+    t0, t1 = trajectory.t0, trajectory.t0 + trajectory.duration
+    for ax in (ax_err, ax_pos):
+        ax.axvspan(t0, t1, color="0.92", zorder=0)
+    ax_err.set_ylabel("|p_d - p| [mm]")
+    ax_err.set_title("Cartesian position error (shaded: the move)")
+    ax_err.legend(loc="best")
+    ax_pos.set_ylabel("end-effector x, y, z [m]")
+    ax_pos.legend(loc="best")
+    for ax in fig.axes:
+        ax.grid(True, alpha=0.3)
+    fig.suptitle(title or f"{runs[0].spec.name}: closed-loop tracking")
+    return fig
+
+
+def save_figure(fig: Any, path: str | os.PathLike[str]) -> Path:
+    """Write ``fig`` to ``path`` (format from the suffix) atomically; returns the path."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.parent)
+    os.close(fd)
+    try:
+        fig.savefig(tmp, dpi=120)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path

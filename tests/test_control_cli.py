@@ -1,0 +1,69 @@
+"""``maniplab control``: a point-to-point move printed as JSON, and one-line errors (exit 2)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import maniplab as ml
+from maniplab.cli import main
+from maniplab.control.point_to_point import ControlError, parse_numbers, plan_move
+
+
+def test_control_command_runs_a_move_and_prints_the_table(tmp_path: Path,
+                                                         capsys: pytest.CaptureFixture) -> None:
+    # crane3 from q = (0, 0, 0.5), end-effector at (5.5, 0, 1.2): slew and luff (the slow telescope
+    # hardly moves), 0.63 m in 2 s
+    code = main(["control", "crane3", "--target", "5.46,0.6,1.4", "--start", "0,0,0.5",
+                 "--duration", "2", "--settle", "0.5", "-o", str(tmp_path)])
+    out = capsys.readouterr().out
+    assert code == 0
+    table = json.loads(out)
+    assert table["label"] == "cascade, position task"
+    assert table["window"] == [0.5, 2.5]
+    assert table["final_error_mm"] < 5.0 and table["rms_error_mm"] < 10.0
+    assert 0.0 < table["peak_iv_A"] <= 1.0
+    assert json.loads((tmp_path / "control.json").read_text()) == table
+    assert (tmp_path / "control.png").stat().st_size > 10_000
+    run = ml.Run.load(tmp_path / "control.npz")
+    assert {"x_d", "x", "dP_d", "phi", "a_x"} <= set(run.signals)
+    assert run.meta["control"]["task"] == "position"
+    np.testing.assert_allclose(run["x_d"][-1, :3], [5.46, 0.6, 1.4], atol=1e-12)
+
+
+@pytest.mark.parametrize(("argv", "words"), [
+    (["--target", "1,x,2"], "expected comma-separated numbers"),
+    (["--target", "1,2"], "expected 3 or 6 finite numbers"),
+    (["--target", "40,0,1"], "beyond its limits"),
+    (["--target", "5,0,1,0,0,0.2"], "needs 6 joints"),
+    (["--target", "5,0,1", "--start", "0,0"], "--start '0,0': expected 3"),
+    (["--target", "5,0,1", "--start", "0,0,5"], "outside its limits"),
+    (["--target", "5,0,1", "--duration", "-1"], "duration must be > 0"),
+])
+def test_control_command_bad_input_is_one_line_exit_2(argv: list[str], words: str,
+                                                       capsys: pytest.CaptureFixture) -> None:
+    args = ["control", "crane3", "--duration", "1.0", *argv]
+    if args.count("--duration") > 1:
+        args = ["control", "crane3", *argv]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("maniplab control: ")
+    assert words in err, err
+
+
+def test_out_of_reach(capsys: pytest.CaptureFixture) -> None:
+    assert main(["control", "planar2", "--target", "2.5,0,0", "--duration", "1"]) == 2
+    assert "out of reach of planar2" in capsys.readouterr().err
+
+
+def test_plan_move_checks_joint_limits() -> None:
+    spec = ml.builtin_spec("crane3")
+    # x = 3.5 on the arm's line needs the telescope below its lower limit 0
+    with pytest.raises(ControlError, match="beyond its limits"):
+        plan_move(spec, [3.5, 0.0, 1.2], start=[0.0, 0.0, 0.5], duration=1.0)
+    move, task, q0 = plan_move(spec, [5.5, 0.0, 1.2], start=None, duration=2.0)
+    assert task == "position" and move.duration == 2.0 and q0.tolist() == [0.0, 0.0, 0.0]
+    assert parse_numbers(" 1, -2.5 ,3e-1", "x", (3,)) == [1.0, -2.5, 0.3]
