@@ -36,7 +36,7 @@ an exact exponential update; no MuJoCo callback is used. Plugin actuators (and e
 LuGre, with ``route="callbacks"``) are integrated by MuJoCo's RK4 itself through
 ``mjcb_act_dyn``/``mjcb_act_bias``, installed only while the plant steps
 (:mod:`maniplab.sim.callbacks`). On the erector (6 hydraulic joints, RK4, dt = 1 ms) the native
-route costs about 3.5 bare ``mj_step`` per step, the callback route about 14 (README).
+route costs about 3.8 bare ``mj_step`` per step, the callback route about 15 (README).
 
 The per-step work is plain Python over the joints' numbers: for the few joints of an arm that is
 several times faster than numpy, whose cost per call (~0.5 µs) exceeds the arithmetic.
