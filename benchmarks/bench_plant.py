@@ -1,4 +1,4 @@
-"""Speed of the plant: the erector's real-time factor, and hybrid friction vs LuGre at matched accuracy.
+"""Speed of the plant: the erector's real-time factor; hybrid friction vs LuGre, matched accuracy.
 
 Run: ``python benchmarks/bench_plant.py`` (about three minutes; ``--quick`` skips the slowest
 LuGre runs). Prints Markdown tables for the README. Times are medians of repeated runs, as CPU
@@ -95,7 +95,7 @@ def erector(repeats: int) -> list[str]:
     return lines
 
 
-# --- 2. stick-slip ---------------------------------------------------------------------------------
+# --- 2. stick-slip -------------------------------------------------------------------------------
 
 def block(model: str) -> ml.ManipulatorSpec:
     return ml.ManipulatorSpec.from_dict({
@@ -174,7 +174,8 @@ def stick_slip_run(model: str, route: str, dt: float):  # noqa: ANN201
     return run
 
 
-def errors(model: str, route: str, reference, ladder, target: float) -> dict[float, float]:  # noqa: ANN001
+def errors(model: str, route: str, reference, ladder,  # noqa: ANN001
+           target: float) -> dict[float, float]:
     """Max position error of the run at each dt of the ladder (inf when unstable), going down
     the ladder until the error is within ``target``."""
     out: dict[float, float] = {}

@@ -23,7 +23,8 @@ MOTOR = {"resistance": 1.0, "inductance": 5e-3, "torque_constant": 0.05, "gear_r
 MASS, LENGTH, DAMPING = 2.0, 0.5, 0.02
 
 
-def motor_arm(actuator_type: str = "plugins.dcmotor:GearedDCMotor", **params: float) -> ml.ManipulatorSpec:
+def motor_arm(actuator_type: str = "plugins.dcmotor:GearedDCMotor",
+              **params: float) -> ml.ManipulatorSpec:
     """One rotational joint about the vertical axis (no gravity torque), a 2 kg, 0.5 m rod."""
     return ml.ManipulatorSpec.from_dict({
         "name": "motor-arm",
@@ -44,7 +45,8 @@ def motor_reference(t: np.ndarray, voltage: float) -> np.ndarray:
 
     def rhs(_t: float, y: np.ndarray) -> list[float]:
         theta, omega, i = y
-        return [omega, (eta * N * K * i - DAMPING * omega) / J, (voltage - R * i - K * N * omega) / L]
+        return [omega, (eta * N * K * i - DAMPING * omega) / J,
+                (voltage - R * i - K * N * omega) / L]
 
     sol = solve_ivp(rhs, (t[0], t[-1]), [0.0, 0.0, 0.0], method="Radau", rtol=1e-11, atol=1e-13,
                     t_eval=t)
@@ -101,13 +103,13 @@ def test_mjcf_gives_a_plugin_one_activation_per_state() -> None:
 def test_bad_plugin_parameters_name_file_joint_and_field(tmp_path, edit, field, words) -> None:
     bad = {"resistance: 1.0": "resistance: -2.0", "inductance: 0.005": "inductanse: 0.005",
            "gear_ratio: 20": "gear_ratio: twenty"}[edit]
-    text = textwrap.dedent(f"""\
+    text = textwrap.dedent("""\
         name: motor
         joints:
           - name: wrist
             type: R
             axis: z
-            body: {{length: 0.5, mass: 2.0}}
+            body: {length: 0.5, mass: 2.0}
             actuator:
               type: plugins.dcmotor:GearedDCMotor
               resistance: 1.0
@@ -144,7 +146,8 @@ def test_unknown_plugin_types_are_spec_errors(kind, words) -> None:
 def test_registered_names_and_entry_points(monkeypatch) -> None:
     monkeypatch.setitem(plugin_module._REGISTRY, "test-motor", GearedDCMotor)
     assert motor_arm("test-motor").joints[0].actuator.plugin is GearedDCMotor
-    point = importlib.metadata.EntryPoint(name="test-dcmotor", value="plugins.dcmotor:GearedDCMotor",
+    point = importlib.metadata.EntryPoint(name="test-dcmotor",
+                                          value="plugins.dcmotor:GearedDCMotor",
                                           group=ml.actuators.ENTRY_POINT_GROUP)
     monkeypatch.setattr(plugin_module, "entry_points", lambda group: [point])
     spec = motor_arm("test-dcmotor")
@@ -199,7 +202,8 @@ def sentinels():
 
 
 def _restored() -> bool:
-    return mujoco.get_mjcb_act_dyn() is _sentinel_dyn and mujoco.get_mjcb_act_bias() is _sentinel_bias
+    return (mujoco.get_mjcb_act_dyn() is _sentinel_dyn
+            and mujoco.get_mjcb_act_bias() is _sentinel_bias)
 
 
 def test_callbacks_are_restored_after_a_run(sentinels) -> None:

@@ -213,3 +213,11 @@ def test_sampling_interval() -> None:
     assert len(run.t) == 101 and run.meta["sample_dt"] == pytest.approx(1e-3)
     run = ml.simulate("planar2", duration=0.1, sample_dt=0.01)
     assert len(run.t) == 11
+
+
+def test_a_mujoco_warning_stops_the_run() -> None:
+    plant = ml.Plant("planar2")
+    plant.set_state(qd=[1e11, 0.0])  # beyond MuJoCo's 1e10 sanity bound
+    with pytest.raises(ml.InstabilityError) as caught:
+        ml.simulate(plant, duration=0.01)
+    assert caught.value.joint == "q1" and "MuJoCo warned" in str(caught.value)

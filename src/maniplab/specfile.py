@@ -430,7 +430,8 @@ def _problem(error: Any, loc: Loc, siblings: list[str]) -> str:  # noqa: C901, P
         tag = ctx.get("tag")
         return (
             f"unknown actuator type {tag!r}; expected {_choices(_spec.ACTUATOR_TYPES)}, or a "
-            f"plugin as 'module:Class' or a registered name{_did_you_mean(tag, _spec.ACTUATOR_TYPES)}"
+            "plugin as 'module:Class' or a registered name"
+            f"{_did_you_mean(tag, _spec.ACTUATOR_TYPES)}"
         )
     if kind == "plugin_problem":
         return str(ctx.get("problem"))

@@ -147,8 +147,8 @@ class HydraulicBank:
             False if a pressure left ±PRESSURE_LIMIT × Ps (or is NaN): the run is unstable.
         """
         sane = True
-        for (j, a, area, _, _, gain_v, inv_ps, decay, gain, valve_decay, memory, _, dt), flow in zip(
-                self._constants, self._flow):
+        for constants, flow in zip(self._constants, self._flow):
+            j, a, area, _, _, gain_v, inv_ps, decay, gain, valve_decay, memory, _, dt = constants
             p, f = act0[a], act0[a + 1]
             swept = area * (q1[j] - q0[j])
             held = decay * p

@@ -133,7 +133,7 @@ class ActuatorPlugin(abc.ABC):
 
     @abc.abstractmethod
     def force(self, x: np.ndarray, u: float, q: float, v: float) -> float:
-        """Force (prismatic, N) or torque (rotational, N·m) on the joint, positive along its axis."""
+        """Force (prismatic, N) or torque (rotational, N·m) on the joint, along its axis."""
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}(joint={self.joint.name!r})"
@@ -263,5 +263,6 @@ def validate(data: Mapping[str, Any]) -> PluginActuator:
 
     name = data["type"]
     plugin = resolve(name)
-    params = TypeAdapter(plugin.Params).validate_python({k: v for k, v in data.items() if k != "type"})
+    values = {k: v for k, v in data.items() if k != "type"}
+    params = TypeAdapter(plugin.Params).validate_python(values)
     return PluginActuator(type=name, params=params, plugin=plugin)

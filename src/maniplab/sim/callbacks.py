@@ -32,7 +32,8 @@ _LOCK = threading.RLock()
 
 @contextlib.contextmanager
 def installed(callbacks: PluginCallbacks) -> Iterator[None]:
-    """Install ``callbacks`` as MuJoCo's act_dyn/act_bias for the block; restore the previous ones."""
+    """Install ``callbacks`` as MuJoCo's act_dyn/act_bias for the block, then restore the
+    previous ones."""
     with _LOCK:
         previous = (mujoco.get_mjcb_act_dyn(), mujoco.get_mjcb_act_bias())
         mujoco.set_mjcb_act_dyn(callbacks.act_dyn)
@@ -104,7 +105,8 @@ class PluginCallbacks:
         except Exception as exc:  # noqa: BLE001 - reported with the joint and time
             raise self._failure(e, "derivatives", exc, d.time) from exc
         if xdot.shape != (e.k,):
-            raise PluginError(f"{_name(e)}.derivatives returned shape {xdot.shape}; expected ({e.k},)")
+            raise PluginError(
+                f"{_name(e)}.derivatives returned shape {xdot.shape}; expected ({e.k},)")
         if e.k == 1:
             return float(xdot[0])
         d.act_dot[e.adr:e.adr + e.k] = xdot

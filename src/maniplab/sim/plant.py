@@ -1,4 +1,4 @@
-"""The Plant: MuJoCo steps the arm's rigid-body dynamics, maniplab's actuators and friction act on it.
+"""The Plant: MuJoCo steps the arm's rigid body, maniplab's actuators and friction act on it.
 
 One step of length dt (the paper's template plant, its Fig. 5):
 
@@ -123,6 +123,8 @@ class Plant:
         self._qpos, self._qvel, self._act = d.qpos, d.qvel, d.act
         self._ctrl, self._applied = d.ctrl[: self.n], d.qfrc_applied
         self._warm = d.qacc_warmstart
+        self._warnings = [(name, d.warning[int(getattr(mujoco.mjtWarning, f"mjWARN_BAD{name}"))])
+                          for name in ("QPOS", "QVEL", "QACC")]
         self._layout_states()
         self._nan = np.full(self.n, np.nan)
         self._setup_actuators(native)
@@ -314,6 +316,8 @@ class Plant:
         self._modes = modes
         self._direction = [1.0] * self.n
         self._last_hold: dict[int, tuple[float, float]] = {}
+        for _, warning in getattr(self, "_warnings", ()):
+            warning.number = 0
         self._prepared = False
 
     def states(self) -> dict[str, np.ndarray]:
@@ -550,7 +554,7 @@ class Plant:
         if moved:
             self._qpos[:] = q1
             self._qvel[:] = v1
-        if not math.isfinite(math.fsum(v1)):
+        if not math.isfinite(math.fsum(v1)) or any(w.number for _, w in self._warnings):
             self._unstable_motion()
         self._tau_applied, self._tau_limit = fric, limit
         act = self._act.tolist()
@@ -605,6 +609,12 @@ class Plant:
         return np.array(self._tau_limit)
 
     def _unstable_motion(self) -> None:
+        for name, warning in self._warnings:
+            if warning.number:
+                joint = self.joint_names[warning.lastinfo] if warning.lastinfo < self.n else None
+                raise InstabilityError(
+                    f"MuJoCo warned of a NaN, infinite or huge value (> 1e10) in {name}",
+                    time=self.t, joint=joint, dt=self.dt)
         bad = np.flatnonzero(~np.isfinite(self.data.qvel) | ~np.isfinite(self.data.qpos))
         joint = self.joint_names[bad[0]] if bad.size else None
         raise InstabilityError("the joint velocity is not finite (NaN or infinity)",

@@ -129,10 +129,12 @@ class Sine(Signal):
     def __call__(self, t: float) -> float:
         if t < self.t0 - EPS:
             return 0.0
-        return self.amplitude * math.sin(2.0 * math.pi * self.frequency * (t - self.t0) + self.phase)
+        angle = 2.0 * math.pi * self.frequency * (t - self.t0) + self.phase
+        return self.amplitude * math.sin(angle)
 
     def __repr__(self) -> str:
-        extra = "".join(f", {k}={_fmt(v)}" for k, v in (("phase", self.phase), ("t0", self.t0)) if v)
+        options = (("phase", self.phase), ("t0", self.t0))
+        extra = "".join(f", {k}={_fmt(v)}" for k, v in options if v)
         return f"sine({_fmt(self.amplitude)}, frequency={_fmt(self.frequency)}{extra})"
 
 

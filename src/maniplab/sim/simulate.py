@@ -85,7 +85,6 @@ def simulate(spec_or_plant: SpecLike | Plant, *, inputs: Mapping[str | int, Any]
     period = _controller_period(controller)
     held = [0.0] * plant.n
     next_call = t0
-    n = plant.n
     dt, prepare, advance = plant.dt, plant.prepare, plant.advance
     with plant.scope():
         for k in range(steps + 1):
