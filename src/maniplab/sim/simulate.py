@@ -17,6 +17,7 @@ from maniplab.actuators.hydraulic import HydraulicCylinder
 from maniplab.actuators.torque import TorqueSource
 from maniplab.builtin import resolve_spec
 from maniplab.mjcf_gen.names import END_EFFECTOR
+from maniplab.model.progress import Progress
 from maniplab.sim.errors import InputError
 from maniplab.sim.plant import Plant, SpecLike, integrator_name
 from maniplab.sim.run import Run
@@ -28,12 +29,16 @@ Controller = Callable[[float, PlantState], Any]
 MAX_SAMPLE_RATE = 1000.0
 """Default recording rate cap, samples per second (every step at the default dt)."""
 
+PROGRESS_STEPS = 200_000
+"""Runs of at least this many steps show a progress bar on a terminal by default."""
+
 
 def simulate(spec_or_plant: SpecLike | Plant, *, inputs: Mapping[str | int, Any] | None = None,
              controller: Controller | None = None, duration: float, dt: float | None = None,
              overrides: Mapping[str, Any] | None = None, initial: Mapping[str, Any] | None = None,
              sample_dt: float | None = None, route: str | None = None,
-             integrator: str | None = None, label: str | None = None) -> Run:
+             integrator: str | None = None, label: str | None = None,
+             progress: bool | None = None) -> Run:
     """Simulate an arm and record its signals.
 
     Args:
@@ -58,6 +63,8 @@ def simulate(spec_or_plant: SpecLike | Plant, *, inputs: Mapping[str | int, Any]
             1000 samples per second).
         route, integrator: see :class:`Plant` (defaults "native", "RK4"; not with a Plant).
         label: a name for legends, stored in ``meta["label"]``.
+        progress: show a progress bar on stderr (None: on a terminal, for runs of at least
+            ``PROGRESS_STEPS`` steps).
 
     Returns:
         The Run: ``t`` (N,), signals ``q``, ``qd``, ``tau_act``, ``tau_fric``, ``tau_limit``,
@@ -86,9 +93,16 @@ def simulate(spec_or_plant: SpecLike | Plant, *, inputs: Mapping[str | int, Any]
     held = [0.0] * plant.n
     next_call = t0
     dt, prepare, advance = plant.dt, plant.prepare, plant.advance
+    ticks = min(100, steps)
+    bar = Progress(ticks, f"simulating {plant.spec.name}",
+                   enabled=progress if progress is not None else
+                   (None if steps >= PROGRESS_STEPS else False))
+    tick = steps // ticks
     with plant.scope():
         for k in range(steps + 1):
             t = t0 + k * dt
+            if bar.enabled and k % tick == 0 and k:
+                bar.step(f"t = {t:.3g} s")
             if controller is not None and k < steps and t >= next_call - 1e-9 * dt:
                 held = _call(controller, t, plant)
                 next_call = next_call + period if period else t
@@ -107,6 +121,7 @@ def simulate(spec_or_plant: SpecLike | Plant, *, inputs: Mapping[str | int, Any]
             advance()
             if record:
                 recorder.forces()
+    bar.close()
     recorder.forces()
     meta = _meta(plant, inputs or {}, controller, period, overrides, initial, steps, every, label)
     return Run(t=recorder.times(), signals=recorder.signals(), spec=plant.spec, meta=meta)
