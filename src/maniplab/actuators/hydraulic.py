@@ -104,8 +104,17 @@ class HydraulicBank:
         self.lanes = [_Lane.of(c, dt) for c in cylinders]
         joints = range(len(cylinders)) if joints is None else joints
         adrs = range(0, 2 * len(cylinders), 2) if adrs is None else adrs
-        self._constants = [(j, a, *dataclasses.astuple(lane))
-                           for j, a, lane in zip(joints, adrs, self.lanes)]
+        # the arithmetic below, folded into as few constants per cylinder as it needs
+        self._before = [
+            (j, a, c.valve_gain, c.inv_supply, c.dt - c.valve_memory, c.valve_memory,
+             c.area * (1.0 - 0.5 * c.c * c.leak_dt), 0.5 * c.area * c.c, c.spring)
+            for j, a, c in zip(joints, adrs, self.lanes)
+        ]
+        self._after = [
+            (j, a, c.area, c.valve_gain, c.inv_supply, c.decay, c.gain, c.valve_decay,
+             c.dt - c.valve_memory, c.valve_memory)
+            for j, a, c in zip(joints, adrs, self.lanes)
+        ]
         self._flow = [0.0] * len(cylinders)
 
     @property
@@ -124,13 +133,14 @@ class HydraulicBank:
             b0: written at the cylinders' joints, N or N·m.
         """
         flows = []
-        for j, a, area, c, leak_dt, gain_v, inv_ps, _, _, _, memory, spring, dt in self._constants:
+        for j, a, gain_v, inv_ps, rest, memory, p_coef, flow_coef, spring in self._before:
             p, f = act[a], act[a + 1]
             root = 1.0 - abs(p) * inv_ps
             target = u[j] * gain_v * math.sqrt(root) if root > 0.0 else 0.0
-            flow = target * dt + (f - target) * memory
+            flow = target * rest + f * memory  # ∫Q over the step
             flows.append(flow)
-            b0[j] = area * (p + 0.5 * c * (flow - leak_dt * p)) + spring * q[j]
+            # A (ΔP + (E/V)(∫Q - Le ΔP dt)/2) + k q
+            b0[j] = p_coef * p + flow_coef * flow + spring * q[j]
         self._flow = flows
 
     def finish(self, q0: Sequence[float], q1: Sequence[float], act0: Sequence[float],
@@ -147,15 +157,15 @@ class HydraulicBank:
             False if a pressure left ±PRESSURE_LIMIT × Ps (or is NaN): the run is unstable.
         """
         sane = True
-        for constants, flow in zip(self._constants, self._flow):
-            j, a, area, _, _, gain_v, inv_ps, decay, gain, valve_decay, memory, _, dt = constants
+        for (j, a, area, gain_v, inv_ps, decay, gain, valve_decay, rest, memory), flow in zip(
+                self._after, self._flow):
             p, f = act0[a], act0[a + 1]
             swept = area * (q1[j] - q0[j])
             held = decay * p
-            mid = 0.5 * (p + held + gain * (flow - swept))
+            mid = 0.5 * (p + held + gain * (flow - swept))  # predicted mid-step ΔP
             root = 1.0 - abs(mid) * inv_ps
             target = u[j] * gain_v * math.sqrt(root) if root > 0.0 else 0.0
-            p1 = held + gain * (target * dt + (f - target) * memory - swept)
+            p1 = held + gain * (target * rest + f * memory - swept)
             act1[a] = p1
             act1[a + 1] = target + (f - target) * valve_decay
             sane = sane and abs(p1) * inv_ps <= PRESSURE_LIMIT
