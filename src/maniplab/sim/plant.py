@@ -88,15 +88,17 @@ class Plant:
         spec: the arm (a spec, a spec file or a built-in name).
         dt: time step, s (default 1e-3: see the README's accuracy figures).
         integrator: MuJoCo integrator name, "RK4" (default), "Euler", "implicit" or "implicitfast".
-        route: "native" (built-in actuators vectorised, no callbacks; plugins still use
-            callbacks) or "callbacks" (every actuator through MuJoCo's callbacks).
+        route: "native" (built-in actuators and LuGre advanced by maniplab between MuJoCo's
+            steps, no callbacks; plugins still use callbacks) or "callbacks" (every actuator
+            and LuGre integrated by MuJoCo through its callbacks).
 
     Attributes:
         spec: the arm.  model, data: MuJoCo's.  dt: s.  n: number of joints.
         actuators: the actuator model of each joint.
         modes: friction/limit mode of each joint (``FrictionMode`` values), int8 (n,).
-        tau_fric, tau_limit: friction (incl. stiction holding) and limit-stop forces applied over
-            the last prepared step, N or N·m, (n,).
+        tau_fric, tau_limit: friction (incl. stiction's holding force) and limit-stop forces of
+            the last step, N or N·m, (n,).
+        state_layout: state name -> (joint indices, activation addresses) in ``data.act``.
     """
 
     def __init__(self, spec: SpecLike, *, dt: float | None = None, integrator: str = "RK4",
