@@ -8,6 +8,7 @@ Public API::
     xml = ml.to_mjcf(spec)                   # MJCF text at full float precision
     model = ml.build_model(spec)             # mujoco.MjModel
     run = ml.simulate(spec, inputs={"q1": ml.signals.step(0.5, t0=0.1)}, duration=2.0)
+    runs = ml.sweep(spec, {"end_effector.mass": [3000, 5000]}, out="runs/", duration=2.0)
 """
 
 from __future__ import annotations
@@ -31,6 +32,9 @@ from maniplab.sim import (
     signals,
     simulate,
 )
+from maniplab.sim.crossval import crossvalidate
+from maniplab.sim.runset import RunSet
+from maniplab.sim.sweep import sweep
 from maniplab.spec import (
     Axis,
     Body,
@@ -53,6 +57,9 @@ except PackageNotFoundError:  # running from a source tree without installation
     __version__ = "0+unknown"
 
 __all__ = [
+    "RunSet",
+    "crossvalidate",
+    "sweep",
     "AnalyticModel",
     "Axis",
     "Body",

@@ -1,0 +1,61 @@
+"""The ``maniplab`` command: one sub-command per job, each in the module named for it.
+
+Bad input (a spec error, a malformed argument, an unreadable run file) prints one line on stderr
+and exits with status 2; it never shows a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from collections.abc import Sequence
+
+from maniplab.cli import (
+    control_command,
+    demo_command,
+    render_command,
+    sim_commands,
+    spec_commands,
+)
+from maniplab.cli.common import EXIT_BAD_INPUT, Parser
+
+__all__ = ["EXIT_BAD_INPUT", "build_parser", "main"]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of the ``maniplab`` command."""
+    from maniplab import __version__
+
+    parser = Parser(prog="maniplab", description=(
+        "Design environment for serial (hydraulic) manipulators on MuJoCo. SPEC is a YAML spec "
+        "file or a built-in spec name (erector, planar2, crane3)."))
+    parser.add_argument("--version", action="version", version=f"maniplab {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
+    for module in (spec_commands, sim_commands, control_command, render_command, demo_command):
+        module.add(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``maniplab`` console script; returns the exit status."""
+    os.environ.setdefault("MUJOCO_GL", "egl")
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.command is None:
+        parser.print_help()
+        return EXIT_BAD_INPUT
+    from maniplab.errors import ManiplabError
+
+    try:
+        return args.func(args)
+    except ManiplabError as exc:
+        print(f"maniplab {args.command}: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except OSError as exc:
+        print(f"maniplab {args.command}: {exc.strerror or exc}: {exc.filename or ''}".rstrip(": "),
+              file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print(f"maniplab {args.command}: interrupted", file=sys.stderr)
+        return 130

@@ -1,0 +1,28 @@
+"""Pieces shared by the sub-commands."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import NoReturn
+
+EXIT_BAD_INPUT = 2
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse with one-line errors (no usage dump), exit status 2."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
+
+
+def spec_argument(parser: argparse.ArgumentParser) -> None:
+    """The positional SPEC argument: a spec file or a built-in name."""
+    parser.add_argument("spec", metavar="SPEC",
+                        help="a spec file (YAML) or the name of a built-in spec "
+                             "(see 'maniplab info --list')")
+
+
+def is_terminal() -> bool:
+    """True when progress bars should be drawn (stderr is a terminal)."""
+    return sys.stderr.isatty()

@@ -1,0 +1,190 @@
+"""Commands on runs: simulate, sweep, compare, runs (the table of a folder), crossval."""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+from maniplab.cli.common import spec_argument
+
+_INPUT_HELP = ("JOINT=SIGNAL, repeatable: valve current (A) of a hydraulic joint, force (N) or "
+               "torque (N·m) of a torque joint. SIGNAL is a number or step:A[@T0], "
+               "impulse:AREA[,WIDTH][@T0], sine:A,FREQ_HZ[,PHASE][@T0], ramp:SLOPE[,T1][@T0], "
+               "constant:V, joined by '+', e.g. q2=step:1.5@0.2 or q1=0.1+sine:0.05,2")
+_SET_HELP = "PATH=VALUE override of the spec, repeatable, e.g. end_effector.mass=4000"
+
+
+def add(sub: argparse._SubParsersAction) -> None:
+    """Register simulate, sweep, compare, runs and crossval."""
+    _add_simulate(sub)
+    _add_sweep(sub)
+    _add_compare(sub)
+    _add_runs(sub)
+    _add_crossval(sub)
+
+
+def _run_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--input", action="append", default=[], metavar="JOINT=SIGNAL",
+                        help=_INPUT_HELP)
+    parser.add_argument("--duration", type=float, required=True, metavar="T",
+                        help="simulated time, s")
+    parser.add_argument("--dt", type=float, metavar="S", help="time step, s (default 1e-3)")
+    parser.add_argument("--balanced", action="store_true",
+                        help="start with the pressures that hold the arm against gravity "
+                             "(default: zero pressure, the arm settles on its cylinders)")
+
+
+def _add_simulate(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("simulate", help="simulate an arm under input signals, store the run",
+                       description="Simulate the arm from rest at q = 0 under the given inputs "
+                                   "and write the run (.npz: every signal, the spec, the "
+                                   "parameters).")
+    spec_argument(p)
+    _run_options(p)
+    p.add_argument("--set", action="append", default=[], metavar="PATH=VALUE", help=_SET_HELP)
+    p.add_argument("-o", "--output", type=Path, default=Path("out/run.npz"), metavar="FILE",
+                   help="the run file to write (default: out/run.npz)")
+    p.set_defaults(func=_cmd_simulate)
+
+
+def _add_sweep(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("sweep", help="simulate every combination of parameter values",
+                       description="Simulate the grid of --vary values in parallel and write one "
+                                   "run per variant into DIR; failed variants are listed.")
+    spec_argument(p)
+    _run_options(p)
+    p.add_argument("--vary", action="append", required=True, metavar="PATH=V1,V2,...",
+                   help="values of one parameter, repeatable (the grid is every combination), "
+                        "e.g. end_effector.mass=3000,4000,5000")
+    p.add_argument("--processes", type=int, metavar="N",
+                   help="local worker processes (default: one per core)")
+    p.add_argument("-o", "--output", type=Path, required=True, metavar="DIR",
+                   help="folder for the runs")
+    p.set_defaults(func=_cmd_sweep)
+
+
+def _add_compare(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("compare", help="overlay signals of several runs in one figure",
+                       description="Plot signals of stored runs into one figure (PNG, SVG or "
+                                   "PDF), one row per signal, a legend naming what differs.")
+    p.add_argument("runs", metavar="RUN", nargs="+", type=Path, help="run files (.npz)")
+    p.add_argument("--signals", default="q", metavar="S1,S2",
+                   help="q, qd, dP, Q, iv, tau_act, tau_fric, mode, ee_path (default: q)")
+    p.add_argument("--joints", metavar="J1,J2", help="joint columns (default: the active ones)")
+    p.add_argument("-o", "--output", type=Path, default=Path("out/compare.png"), metavar="FILE",
+                   help="figure file, .png, .svg or .pdf (default: out/compare.png)")
+    p.set_defaults(func=_cmd_compare)
+
+
+def _add_runs(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("runs", help="table of the runs stored in a folder",
+                       description="List the runs in DIR with the parameters that differ.")
+    p.add_argument("folder", metavar="DIR", type=Path, help="a folder of run files")
+    p.set_defaults(func=_cmd_runs)
+
+
+def _add_crossval(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("crossval", help="cross-validate the MuJoCo plant and the analytic model",
+                       description="Simulate the arm with ideal actuators (no friction, no "
+                                   "limits) on the MuJoCo plant and as the analytic model "
+                                   "integrated by scipy, from rest at q = 0; print the largest "
+                                   "deviation and plot both.")
+    spec_argument(p)
+    p.add_argument("--input", action="append", default=[], metavar="JOINT=SIGNAL",
+                   help="force/torque inputs, as for simulate (default: none, the arm moves "
+                        "under gravity)")
+    p.add_argument("--duration", type=float, default=5.0, metavar="T",
+                   help="simulated time, s (default: 5)")
+    p.add_argument("--method", default="DOP853", help="scipy solver (default: DOP853)")
+    p.add_argument("-o", "--output", type=Path, default=Path("out/crossval.png"), metavar="FILE",
+                   help="figure of both trajectories (default: out/crossval.png)")
+    p.set_defaults(func=_cmd_crossval)
+
+
+def _inputs(texts: list[str]) -> dict[str, object]:
+    from maniplab.sim.grammar import parse_input
+
+    inputs: dict[str, object] = {}
+    for text in texts:
+        joint, signal = parse_input(text)
+        inputs[joint] = inputs[joint] + signal if joint in inputs else signal
+    return inputs
+
+
+def _initial(args: argparse.Namespace) -> dict[str, object] | None:
+    return {"dP": "gravity"} if args.balanced else None
+
+
+def _cmd_simulate(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    import maniplab as ml
+    from maniplab.sim.grammar import parse_assignment
+
+    overrides = dict(parse_assignment(text) for text in args.set)
+    spec = ml.resolve_spec(args.spec)
+    start = time.perf_counter()
+    run = ml.simulate(spec, inputs=_inputs(args.input), duration=args.duration, dt=args.dt,
+                      overrides=overrides or None, initial=_initial(args),
+                      label=args.output.stem)
+    wall = time.perf_counter() - start
+    run.save(args.output)
+    peak = np.nanmax(np.abs(run["dP"])) / 1e6 if np.isfinite(run["dP"]).any() else 0.0
+    print(f"wrote {args.output}: {run.spec.name}, {run.t[-1]:g} s simulated in {wall:.2f} s "
+          f"({run.t[-1] / wall:.0f}x real time); final q = "
+          f"{np.array2string(run.q[-1], precision=4)}; peak |dP| = {peak:.3g} MPa")
+    return 0
+
+
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    import maniplab as ml
+    from maniplab.sim.grammar import parse_variation
+
+    grid = dict(parse_variation(text) for text in args.vary)
+    runs = ml.sweep(args.spec, grid, out=args.output, inputs=_inputs(args.input),
+                    duration=args.duration, processes=args.processes, dt=args.dt,
+                    initial=_initial(args))
+    print(runs.table())
+    print(f"\n{len(runs)} runs in {args.output}" +
+          (f", {len(runs.failures)} failed" if runs.failures else ""))
+    return 1 if runs.failures and not len(runs) else 0
+
+
+def _cmd_compare(args: argparse.Namespace) -> int:
+    from maniplab.sim import Run
+    from maniplab.viz.plots import compare, save_figure
+
+    runs = [Run.load(path) for path in args.runs]
+    signals = [s.strip() for s in args.signals.split(",") if s.strip()]
+    joints = [j.strip() for j in args.joints.split(",")] if args.joints else None
+    save_figure(compare(runs, signals=signals, joints=joints), args.output)
+    print(f"wrote {args.output} ({len(runs)} runs, signals {', '.join(signals)})")
+    return 0
+
+
+def _cmd_runs(args: argparse.Namespace) -> int:
+    from maniplab.sim.run import RunFileError
+    from maniplab.sim.runset import RunSet
+
+    if not args.folder.is_dir():
+        raise RunFileError(f"{args.folder}: not a folder")
+    runs = RunSet(args.folder)
+    print(runs.table() if len(runs) else f"no runs (.npz) in {args.folder}")
+    return 0
+
+
+def _cmd_crossval(args: argparse.Namespace) -> int:
+    from maniplab.sim.crossval import crossvalidate
+    from maniplab.viz.plots import compare, save_figure
+
+    result = crossvalidate(args.spec, inputs=_inputs(args.input), duration=args.duration,
+                           method=args.method)
+    runs = [result.mujoco, result.analytic]
+    figure = compare(runs, signals=["q"], labels=["MuJoCo plant (RK4)", f"analytic model ({args.method})"],
+                     title=f"{result.mujoco.spec.name}: MuJoCo plant vs analytic model")
+    save_figure(figure, args.output)
+    print(f"{result.mujoco.spec.name}: largest deviation {result.max_deviation:.3g} "
+          f"(rad or m) at joint {result.joint}, t = {result.time:.3g} s over "
+          f"{args.duration:g} s; figure {args.output}")
+    return 0

@@ -1,0 +1,100 @@
+"""Commands on one spec: info, export (MJCF), validate, model (the analytic model)."""
+
+from __future__ import annotations
+
+import argparse
+import os
+from pathlib import Path
+
+from maniplab.cli.common import spec_argument
+
+
+def add(sub: argparse._SubParsersAction) -> None:
+    """Register the sub-command(s) of this module."""
+    info = sub.add_parser("info", help="print a table of the arm's joints, bodies, actuators, limits",
+                          description="Print a table of joints, bodies, masses, actuators and limits.")
+    info.add_argument("spec", metavar="SPEC", nargs="?", help="a spec file or built-in name")
+    info.add_argument("--list", action="store_true", help="list the built-in specs")
+    info.set_defaults(func=_cmd_info)
+
+    export = sub.add_parser("export", help="write the arm's MJCF model",
+                            description="Write the MuJoCo model (MJCF, full float precision).")
+    spec_argument(export)
+    export.add_argument("-o", "--output", required=True, type=Path, metavar="FILE",
+                        help="the MJCF file to write (e.g. arm.xml)")
+    export.set_defaults(func=_cmd_export)
+
+    validate = sub.add_parser("validate", help="check a spec and that MuJoCo can build it",
+                              description="Validate a spec file and compile its MuJoCo model.")
+    spec_argument(validate)
+    validate.set_defaults(func=_cmd_validate)
+
+    model = sub.add_parser(
+        "model", help="write the arm's analytic model (LaTeX, Markdown, Python or C)",
+        description="Write the analytic model M, C, G, Fv: readable (latex, markdown: parameters as "
+                    "symbols, cse form for large arms) or as code to drop into another project "
+                    "(python: math and numpy only; c: math.h only).")
+    spec_argument(model)
+    model.add_argument("-f", "--format", choices=("latex", "markdown", "python", "c"),
+                       help="output format (default: from the file's suffix .tex, .md, .py, .c)")
+    model.add_argument("-o", "--output", required=True, type=Path, metavar="FILE",
+                       help="the file to write")
+    model.add_argument("--symbolic", default="mass,length,payload", metavar="GROUPS",
+                       help="parameter groups kept as symbols in latex/markdown, comma-separated, "
+                            "from mass, length, com, inertia, payload, offset, gravity, friction; "
+                            "'' for none (default: mass,length,payload)")
+    model.set_defaults(func=_cmd_model)
+
+
+def _cmd_info(args: argparse.Namespace) -> int:
+    import maniplab as ml
+    from maniplab.summary import spec_table
+
+    if args.list or args.spec is None:
+        print("built-in specs: " + ", ".join(ml.builtin_specs()))
+        return 0
+    print(spec_table(ml.resolve_spec(args.spec)))
+    return 0
+
+
+def _cmd_export(args: argparse.Namespace) -> int:
+    import maniplab as ml
+
+    spec = ml.resolve_spec(args.spec)
+    ml.mjcf_gen.write_mjcf(spec, args.output)
+    print(f"wrote {args.output} ({spec.name}, {spec.n} joints)")
+    return 0
+
+
+def _cmd_validate(args: argparse.Namespace) -> int:
+    import maniplab as ml
+
+    spec = ml.resolve_spec(args.spec)
+    model = ml.build_model(spec)
+    print(f"ok: {spec.name} is valid ({spec.n} joints, {model.nbody - 1} bodies, "
+          f"{model.nu} actuators)")
+    return 0
+
+
+def _cmd_model(args: argparse.Namespace) -> int:
+    import maniplab as ml
+    from maniplab.model.export import SUFFIXES, export_model
+    from maniplab.model.parameters import GROUPS
+
+    fmt = args.format or SUFFIXES.get(args.output.suffix.lower())
+    if fmt is None:
+        raise ml.ManiplabError(f"cannot tell the format from '{args.output.name}'; give --format "
+                               "(latex, markdown, python or c) or a .tex, .md, .py or .c file")
+    symbolic = [g.strip() for g in args.symbolic.split(",") if g.strip()]
+    unknown = [g for g in symbolic if g not in GROUPS]
+    if unknown:
+        raise ml.ManiplabError(f"unknown parameter group '{unknown[0]}' in --symbolic; expected "
+                               f"some of {', '.join(GROUPS)}")
+    spec = ml.resolve_spec(args.spec)
+    text = export_model(spec, fmt, symbolic)
+    args.output.parent.mkdir(parents=True, exist_ok=True)
+    tmp = args.output.with_name(f".{args.output.name}.tmp-{os.getpid()}")
+    tmp.write_text(text)
+    os.replace(tmp, args.output)
+    print(f"wrote {args.output} ({spec.name}, {spec.n} joints, {fmt})")
+    return 0
