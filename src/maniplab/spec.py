@@ -526,7 +526,7 @@ class ControlSpec:
         pid_only: gains of the PID-only baseline.
     """
 
-    rate: Positive = 250.0
+    rate: Positive = 200.0
     task: Literal["position", "pose"] | None = None
     position: CartesianGains = CartesianGains(kp=400.0, ki=1000.0, kd=40.0)
     orientation: CartesianGains = CartesianGains(kp=400.0, ki=1000.0, kd=40.0)

@@ -470,7 +470,7 @@ _SECTION_EXAMPLES = {
     "friction": "model: hybrid, coulomb: 100.0",
     "body": "length: 1.0, mass: 10.0",
     "end_effector": "mass: 500.0",
-    "control": "rate: 250.0, position: {kp: 400.0, kd: 40.0}",
+    "control": "rate: 200.0, position: {kp: 400.0, kd: 40.0}",
     "position": "kp: 400.0, ki: 1000.0, kd: 40.0",
     "orientation": "kp: 400.0, ki: 1000.0, kd: 40.0",
     "pressure": "bandwidth: 40.0",

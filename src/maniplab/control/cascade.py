@@ -112,8 +112,11 @@ class CascadeController:
         b = g.pid_only
         self.joint_pid = PID(b.kp, b.ki, b.kd, dt=self.dt, size=n, limits=(-vmax, vmax))
         self._limit = self.act.command_limit
-        self._h = np.flatnonzero(self.act.hydraulic)
+        hyd = np.flatnonzero(self.act.hydraulic)
+        self._h: Any = slice(None) if len(hyd) == n else hyd  # a view when every joint is
+        self._has_h = len(hyd) > 0
         self._torque = np.flatnonzero(~self.act.hydraulic)
+        self._nan_n, self._nan_6 = np.full(n, np.nan), np.full(6, np.nan)
         self._area = self.act.area[self._h]
         self._cv = self.act.valve_gain[self._h]
         self._ps = self.act.supply_pressure[self._h]
@@ -162,7 +165,7 @@ class CascadeController:
         J = self.kin.jacobian(q)
         rows = self.rows
         m = len(rows)
-        e = np.full(6, np.nan)  # logged; the orientation part only on a pose task
+        e = self._nan_6.copy()  # logged; the orientation part only on a pose task
         e[:3] = ref.position - p
         if m == 6:
             e[3:] = rotation_log(ref.rotation @ R.T)
@@ -192,9 +195,8 @@ class CascadeController:
             qdd = qdd - self.gains.null_damping * (qd - sol[:, 2])
         tau = self.g1.torque(q, qd, qdd, qd_ref)
         cmd = np.clip(tau, -act.torque_limit, act.torque_limit) if self._torque.size else tau.copy()
-        dP_d = np.full(self.n, np.nan)
-        phi = np.full(self.n, np.nan)
-        if h.size:
+        dP_d, phi = self._nan_n.copy(), self._nan_n.copy()
+        if self._has_h:
             dPd_h = tau[h] / self._area
             dP_h = dP[h]
             phi_h = self.pressure.flow(dPd_h, dP_h, qd[h], qd_ref[h])
@@ -202,7 +204,7 @@ class CascadeController:
                                    min_root=self.gains.valve_min_root)
             dP_d[h], phi[h] = dPd_h, phi_h
         self._saturated = bool((np.abs(cmd) >= self._limit).any())
-        a_full = np.full(6, np.nan)
+        a_full = self._nan_6.copy()
         a_full[:m] = a_x
         return cmd, {"a_x": a_full, "qdd_d": qdd, "tau_d": tau, "dP_d": dP_d, "phi": phi}
 

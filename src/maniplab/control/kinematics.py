@@ -124,7 +124,7 @@ class DampedLeastSquares:
             self._gain = s / (s * s + self.lam2)
         else:  # the pseudo-inverse, ignoring numerically zero singular values
             tiny = 1e-12 * (float(s[0]) if s.size else 0.0)
-            self._gain = np.where(s > tiny, 1.0 / np.where(s > tiny, s, 1.0), 0.0)
+            self._gain = np.divide(1.0, s, out=np.zeros_like(s), where=s > tiny)
 
     def solve(self, rhs: ArrayLike) -> np.ndarray:
         """x for J x ≈ rhs; rhs shape (m,) or (m, k), x shape (n,) or (n, k)."""

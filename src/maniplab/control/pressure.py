@@ -52,6 +52,8 @@ class PressureLoop:
         self.compressibility = compressibility
         self.pid = PID(bandwidth * cap, integral * bandwidth * cap, 0.0, dt=dt,
                        size=len(self.index))
+        self._kp = self.pid.kp
+        self._proportional = integral == 0.0  # no integrator: Kp e, without the PID object
         self.dt = dt
         self._alpha = dt / (rate_filter + dt)
         self.reset()
@@ -89,7 +91,9 @@ class PressureLoop:
         if self._prev is not None:
             self._rate += self._alpha * ((dP_d - self._prev) / self.dt - self._rate)
         self._prev = dP_d
-        flow = self._area * qd + self._leak * dP + self.pid.update(dP_d - dP)
+        error = dP_d - dP
+        feedback = self._kp * error if self._proportional else self.pid.update(error)
+        flow = self._area * qd + self._leak * dP + feedback
         if self.compressibility:
             flow += self._cap * self._rate
         if qd_ref is not None and self.speed_gain:

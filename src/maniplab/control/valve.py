@@ -42,4 +42,4 @@ def valve_current(flow: ArrayLike, dP: ArrayLike, gain: ArrayLike, supply_pressu
     """
     root = np.sqrt(np.maximum(1.0 - np.abs(dP) / supply_pressure, min_root * min_root))
     current = np.asarray(flow, dtype=float) / (gain * root)
-    return np.clip(current, -current_limit, current_limit)
+    return np.minimum(np.maximum(current, -current_limit), current_limit)
