@@ -79,3 +79,13 @@ def test_constructed_in_python_is_validated() -> None:
         ControlSpec(rate=0.0)
     with pytest.raises(ml.SpecError):
         CartesianGains(kp=-1.0)
+
+
+def test_readme_control_section_shows_the_defaults(tmp_path: Path) -> None:
+    import re
+
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    block = re.search(r"```yaml\n(control:\n.*?)```", readme, re.S)
+    assert block, "README has no control: example"
+    spec = ml.load_spec(write(tmp_path, ARM + block.group(1)))
+    assert spec.control == ControlSpec()
