@@ -32,12 +32,17 @@ PICK_Q0 = np.array([-0.9, 1.3, -0.4, -0.1, 0.0, 0.0])
 START = 0.5  # s at rest before the reference starts to move
 
 
-def parse_args(description: str, argv: Sequence[str] | None) -> argparse.Namespace:
+def parse_args(description: str, argv: Sequence[str] | None, *,
+               tune: bool = False) -> argparse.Namespace:
+    """The scripts' options: -o DIR, --short (and --tune where ``tune``)."""
     parser = argparse.ArgumentParser(description=description)
     parser.add_argument("-o", "--output", type=Path, default=Path("out/examples"),
                         help="folder for the table, plots and runs (default out/examples)")
     parser.add_argument("--short", action="store_true",
                         help="a short version (smaller, quicker moves) for the test suite")
+    if tune:
+        parser.add_argument("--tune", action="store_true",
+                            help="redo the grid search of the baseline's gains first")
     return parser.parse_args(argv)
 
 

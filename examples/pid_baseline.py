@@ -78,13 +78,12 @@ def tune(spec: ml.ManipulatorSpec, model: ml.AnalyticModel, move: ml.MinJerkMove
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    args = parse_args(__doc__.splitlines()[0], [a for a in (argv or sys.argv[1:]) if a != "--tune"])
-    do_tune = "--tune" in (argv or sys.argv[1:])
+    args = parse_args(__doc__.splitlines()[0], argv, tune=True)
     spec = ml.builtin_spec("erector")
     model = ml.AnalyticModel(spec)
     move = acceptance_move(model, short=args.short)
     path = placement_path(model, short=args.short)
-    gains = tune(spec, model, move, path, args.output) if do_tune else ml.ControlSpec().pid_only
+    gains = tune(spec, model, move, path, args.output) if args.tune else ml.ControlSpec().pid_only
     print(f"PID-only gains: kp={gains.kp:g} /s, ki={gains.ki:g} /s², kd={gains.kd:g}")
     cases = [run_case(spec, move, MOVE_Q0, label="cascade", task="position", model=model),
              run_case(spec, move, MOVE_Q0, label="PID only", mode="pid", task="position",
