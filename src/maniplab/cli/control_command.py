@@ -40,9 +40,10 @@ def _cmd_control(args: argparse.Namespace) -> int:
 
     import maniplab as ml
     from maniplab.control.metrics import tracking_metrics
-    from maniplab.control.plots import save_figure, tracking_figure
     from maniplab.control.point_to_point import ControlError, parse_numbers, plan_move
     from maniplab.specfile import write_atomic
+    from maniplab.viz.plots import save_figure
+    from maniplab.viz.tracking import tracking_figure
 
     spec = ml.resolve_spec(args.spec)
     target = parse_numbers(args.target, "--target", (3, 6))

@@ -6,10 +6,7 @@ reference, and per moving hydraulic joint the differential pressure and the valv
 
 from __future__ import annotations
 
-import os
-import tempfile
 from collections.abc import Sequence
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -84,18 +81,3 @@ def tracking_figure(runs: Sequence[Any], trajectory: Trajectory,
         ax.grid(True, alpha=0.3)
     fig.suptitle(title or f"{runs[0].spec.name}: closed-loop tracking")
     return fig
-
-
-def save_figure(fig: Any, path: str | os.PathLike[str]) -> Path:
-    """Write ``fig`` to ``path`` (format from the suffix) atomically; returns the path."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.parent)
-    os.close(fd)
-    try:
-        fig.savefig(tmp, dpi=120)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
