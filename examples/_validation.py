@@ -22,7 +22,7 @@ from maniplab.validation import (  # noqa: F401 - re-exported for the scripts
     MOVE_Q0, PICK_Q0, START, acceptance_move, placement_path, run_case)
 from maniplab.viz.plots import save_figure
 from maniplab.viz.tracking import tracking_figure
-from maniplab.specfile import write_atomic
+from maniplab.atomic import write_text
 
 def parse_args(description: str, argv: Sequence[str] | None, *,
                tune: bool = False) -> argparse.Namespace:
@@ -45,8 +45,8 @@ def report(name: str, title: str, cases: Sequence[tuple[ml.Run, TrackingMetrics]
     table = format_table(rows)
     print(f"\n{title}\n\n{table}\n", flush=True)
     output.mkdir(parents=True, exist_ok=True)
-    write_atomic(output / f"{name}.md", f"# {title}\n\n{table}\n")
-    write_atomic(output / f"{name}.json", to_json(rows) + "\n")
+    write_text(output / f"{name}.md", f"# {title}\n\n{table}\n")
+    write_text(output / f"{name}.json", to_json(rows) + "\n")
     fig = tracking_figure([r for r, _ in cases], trajectory, title=title)
     save_figure(fig, output / f"{name}.png")
     for run, metrics in cases:
@@ -65,7 +65,7 @@ def ratio_line(numerator: TrackingMetrics, denominator: TrackingMetrics) -> str:
 
 
 def dump_json(path: Path, data: Any) -> None:
-    write_atomic(path, json.dumps(data, indent=2) + "\n")
+    write_text(path, json.dumps(data, indent=2) + "\n")
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -36,7 +36,7 @@ def dominant_frequency(t: np.ndarray, x: np.ndarray) -> float:
     pad = 16 * len(x)  # zero padding: 1/16 of the raw FFT bin
     spectrum = np.abs(np.fft.rfft(x, pad))
     freqs = np.fft.rfftfreq(pad, t[1] - t[0])
-    band = freqs > 0.5
+    band = (freqs > 1.0) & (freqs < 20.0)  # the hydraulic (oil-spring) modes, not the drift
     return float(freqs[band][np.argmax(spectrum[band])])
 
 

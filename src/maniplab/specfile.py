@@ -9,7 +9,6 @@ from __future__ import annotations
 import difflib
 import os
 import re
-import tempfile
 import typing
 from pathlib import Path
 from typing import Any
@@ -18,6 +17,7 @@ import yaml
 from pydantic import TypeAdapter, ValidationError
 
 from maniplab import spec as _spec
+from maniplab.atomic import write_text
 from maniplab.errors import SpecError
 
 Loc = tuple[Any, ...]
@@ -159,20 +159,7 @@ def dump_spec(spec: _spec.ManipulatorSpec, path: str | os.PathLike[str]) -> None
     text = f"# maniplab spec '{spec.name}'\n" + yaml.dump(
         spec.to_dict(), Dumper=_Dumper, sort_keys=False, allow_unicode=True, width=100
     )
-    write_atomic(Path(path), text)
-
-
-def write_atomic(path: Path, text: str) -> None:
-    """Write text to ``path`` through a temporary file in the same folder, so no half file is left."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as handle:
-            handle.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    write_text(Path(path), text)
 
 
 # --- validation ------------------------------------------------------------------------------

@@ -41,7 +41,7 @@ def _cmd_control(args: argparse.Namespace) -> int:
     import maniplab as ml
     from maniplab.control.metrics import tracking_metrics
     from maniplab.control.point_to_point import ControlError, parse_numbers, plan_move
-    from maniplab.specfile import write_atomic
+    from maniplab.atomic import write_text
     from maniplab.viz.plots import save_figure
     from maniplab.viz.tracking import tracking_figure
 
@@ -61,7 +61,7 @@ def _cmd_control(args: argparse.Namespace) -> int:
     table = json.dumps(metrics.to_dict(), indent=2)
     args.output.mkdir(parents=True, exist_ok=True)
     run.save(args.output / "control.npz")
-    write_atomic(args.output / "control.json", table + "\n")
+    write_text(args.output / "control.json", table + "\n")
     save_figure(tracking_figure([run], move), args.output / "control.png")
     print(table)
     return 0

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import os
 from pathlib import Path
 
 from maniplab.cli.common import spec_argument
@@ -78,6 +77,7 @@ def _cmd_validate(args: argparse.Namespace) -> int:
 
 def _cmd_model(args: argparse.Namespace) -> int:
     import maniplab as ml
+    from maniplab.atomic import write_text
     from maniplab.model.export import SUFFIXES, export_model
     from maniplab.model.parameters import GROUPS
 
@@ -92,9 +92,6 @@ def _cmd_model(args: argparse.Namespace) -> int:
                                f"some of {', '.join(GROUPS)}")
     spec = ml.resolve_spec(args.spec)
     text = export_model(spec, fmt, symbolic)
-    args.output.parent.mkdir(parents=True, exist_ok=True)
-    tmp = args.output.with_name(f".{args.output.name}.tmp-{os.getpid()}")
-    tmp.write_text(text)
-    os.replace(tmp, args.output)
+    write_text(args.output, text)
     print(f"wrote {args.output} ({spec.name}, {spec.n} joints, {fmt})")
     return 0

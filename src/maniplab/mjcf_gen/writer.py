@@ -27,7 +27,7 @@ import numpy as np
 
 from maniplab.builtin import resolve_spec
 from maniplab.mjcf_gen import builder
-from maniplab.specfile import write_atomic
+from maniplab.atomic import write_text
 
 # (MjSpec attribute, XML attribute) per element kind, in the order they are written.
 _Attrs = Sequence[tuple[str, str]]
@@ -217,7 +217,7 @@ def write_mjcf(spec: builder.SpecLike, path: str | os.PathLike[str]) -> Path:
         The path written.
     """
     target = Path(path)
-    write_atomic(target, to_mjcf(spec))
+    write_text(target, to_mjcf(spec))
     return target
 
 

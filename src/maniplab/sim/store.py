@@ -12,8 +12,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
-import tempfile
 import zipfile
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
@@ -21,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from maniplab.atomic import atomic_path
 from maniplab.errors import SpecError
 from maniplab.sim.run import UNITS, Run, RunFileError
 from maniplab.spec import ManipulatorSpec
@@ -66,15 +65,8 @@ def save(run: Run, path: Path) -> None:
     and an earlier file of that name stays intact until the new one is complete."""
     arrays = {f"signal/{name}": np.asarray(values) for name, values in run.signals.items()}
     header = json.dumps(header_of(run))
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as handle:
-            np.savez(handle, t=np.asarray(run.t), header=np.array(header), **arrays)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with atomic_path(path) as tmp, open(tmp, "wb") as handle:
+        np.savez(handle, t=np.asarray(run.t), header=np.array(header), **arrays)
 
 
 def read_header(path: Path) -> dict[str, Any]:

@@ -15,6 +15,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from maniplab.actuators.modes import FrictionMode
+from maniplab.atomic import atomic_path
 from maniplab.errors import ManiplabError
 from maniplab.sim import params
 from maniplab.sim.run import Run
@@ -138,12 +139,6 @@ def save_figure(fig: Figure, path: str | os.PathLike[str]) -> Path:
     fmt = path.suffix.lower().lstrip(".")
     if fmt not in ("png", "svg", "pdf"):
         raise PlotError(f"{path}: unknown figure format {fmt!r}; expected .png, .svg or .pdf")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp")
-    try:
-        with matplotlib.rc_context(_STYLE):
-            fig.savefig(tmp, format=fmt)
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
+    with atomic_path(path) as tmp, matplotlib.rc_context(_STYLE):
+        fig.savefig(tmp, format=fmt)
     return path

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from maniplab.atomic import atomic_path
 from maniplab.viz.gl import RenderError
 
 FORMATS = {".mp4": "h264", ".gif": "gif"}
@@ -68,20 +69,16 @@ def _write(frames: Iterator[np.ndarray], path: Path, codec: str, fps: float) -> 
     shape = _check_frame(first, None)
     check_format(path, shape[1], shape[0])
     mediapy.set_ffmpeg(imageio_ffmpeg.get_ffmpeg_exe())
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.stem}.tmp-{os.getpid()}{path.suffix}")
     options = {"crf": CRF, "ffmpeg_args": ["-preset", PRESET]} if codec == "h264" else {}
     try:
-        with mediapy.VideoWriter(tmp, shape, codec=codec, fps=fps, **options) as writer:
+        with atomic_path(path) as tmp, mediapy.VideoWriter(tmp, shape, codec=codec, fps=fps,
+                                                           **options) as writer:
             for frame in itertools.chain([first], frames):
                 _check_frame(frame, shape)
                 writer.add_image(frame)
-        os.replace(tmp, path)
     except RuntimeError as exc:
         raise RenderError(f"ffmpeg could not write '{path.name}': {' '.join(str(exc).split())}") \
             from exc
-    finally:
-        tmp.unlink(missing_ok=True)
 
 
 def check_format(path: Path, width: int | None = None, height: int | None = None) -> str:
