@@ -9,6 +9,7 @@ analytic model; videos of the closed-loop run and of both controllers side by si
 from __future__ import annotations
 
 import dataclasses
+import json
 import sys
 import time
 from collections.abc import Callable
@@ -62,6 +63,7 @@ class Demo:
         self.spec = ml.builtin_spec("erector")
         self.sections: list[Section] = []
         self.summary: list[tuple[str, str]] = []
+        self.figures: dict[str, Any] = {}  # the key numbers, also written to summary.json
         self.stages: list[tuple[str, Callable[[], None]]] = [
             ("MJCF model", self.mjcf),
             ("analytic model", self.analytic_model),
@@ -81,6 +83,7 @@ class Demo:
             stage()
             self._say(f" done in {time.perf_counter() - began:.1f} s\n")
         self._say(f"[{len(self.stages) + 1}/{len(self.stages) + 1}] report ...")
+        write_text(self.out / "summary.json", json.dumps(self.figures, indent=2) + "\n")
         report = self.report()
         self._say(f" done\n\nmaniplab demo finished in {time.perf_counter() - start:.0f} s\n")
         for name, value in self.summary:
@@ -114,6 +117,8 @@ class Demo:
             text = export_model(self.spec, fmt, ())
             write_text(self.out / "model" / f"erector_model.{suffix}", text)
         ours, mujoco_us = _inverse_dynamics_speed(self.model, self.spec)
+        self.figures["analytic_model"] = {"load_s": load_s, "backend": self.model.backend,
+                                          "inverse_dynamics_us": ours, "mj_inverse_us": mujoco_us}
         self.summary.append(("inverse dynamics per call", f"{ours:.2f} µs (MuJoCo mj_inverse "
                                                           f"{mujoco_us:.2f} µs)"))
         self.sections.append(Section(
@@ -143,6 +148,9 @@ class Demo:
             figure = compare(list(runs), signals=["q", "dP"], joints=[JOINT],
                              title=f"erector: {JOINT} valve current {name} ({signal!r})")
             images.append(save_figure(figure, self.out / f"open_loop_{name}.png"))
+        self.figures["open_loop"] = {"inputs": {k: repr(v) for k, v in inputs.items()},
+                                     "runs": 3 * len(PAYLOADS) * len(LEAKAGES),
+                                     "simulated_per_wall_s": simulated / wall}
         self.summary.append(("open-loop runs", f"{3 * len(PAYLOADS) * len(LEAKAGES)} runs, "
                                                f"{simulated / wall:.0f} s simulated per s"))
         self.sections.append(Section(
@@ -176,6 +184,15 @@ class Demo:
                             self.out / "closed_loop.png")
         cascade, pid = self.closed["cascade"][1], self.closed["pid"][1]
         ratio = pid.rms_error_mm / cascade.rms_error_mm
+        self.figures["closed_loop"] = {
+            mode: {"run": f"runs/closed_loop_{mode}.npz", "window_s": list(m.window),
+                   "rms_error_mm": m.rms_error_mm, "final_error_mm": m.final_error_mm,
+                   "peak_dP_MPa": m.peak_dP_MPa, "peak_iv_A": m.peak_iv_A,
+                   "real_time_factor": rtf}
+            for mode, (_, m, rtf) in self.closed.items()}
+        self.figures["closed_loop"]["move"] = {
+            "start_m": move.start.position.tolist(), "goal_m": move.goal.position.tolist(),
+            "t0_s": move.t0, "duration_s": move.duration, "profile": "minimum jerk"}
         self.summary += [("tracking error, cascade", f"{cascade.rms_error_mm:.2f} mm RMS, "
                                                       f"{cascade.final_error_mm:.2f} mm final"),
                          ("tracking error, PID only", f"{pid.rms_error_mm:.2f} mm RMS "
@@ -198,6 +215,8 @@ class Demo:
                                     labels=["MuJoCo plant (RK4)", "analytic model (scipy DOP853)"],
                                     title="erector, ideal actuators, falling under gravity"),
                             self.out / "crossval.png")
+        self.figures["crossval"] = {"max_deviation": result.max_deviation, "joint": result.joint,
+                                    "time_s": result.time, "duration_s": self.settings.crossval_s}
         self.summary.append(("model agreement", f"{result.max_deviation:.1e} rad over "
                                                 f"{self.settings.crossval_s:g} s"))
         self.sections.append(Section(
