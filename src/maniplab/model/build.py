@@ -39,7 +39,7 @@ from maniplab.model.compiler import compile_shared, find_compiler
 from maniplab.model.dynamics import derive
 from maniplab.model.engine import Engine, get_engine
 from maniplab.model.parameters import ArmTerms, arm_terms, structure_key
-from maniplab.model.progress import Progress
+from maniplab.progress import Progress
 from maniplab.spec import ManipulatorSpec
 
 BACKENDS = ("auto", "c", "python")

@@ -17,7 +17,7 @@ from maniplab.actuators.hydraulic import HydraulicCylinder
 from maniplab.actuators.torque import TorqueSource
 from maniplab.builtin import resolve_spec
 from maniplab.mjcf_gen.names import END_EFFECTOR
-from maniplab.model.progress import Progress
+from maniplab.progress import Progress
 from maniplab.sim.errors import InputError
 from maniplab.sim.plant import Plant, SpecLike, integrator_name
 from maniplab.sim.run import Run

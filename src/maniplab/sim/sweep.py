@@ -13,15 +13,13 @@ import concurrent.futures as cf
 import itertools
 import os
 import re
-import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from tqdm import tqdm
-
 from maniplab.builtin import resolve_spec
 from maniplab.errors import ManiplabError
+from maniplab.progress import Progress
 from maniplab.sim.params import format_parameters
 from maniplab.sim.runset import Failure, RunSet
 from maniplab.sim.simulate import simulate
@@ -77,8 +75,7 @@ def sweep(spec: ManipulatorSpec | str | os.PathLike[str], grid: Variants, *,
     job = _Job(base, dict(inputs or {}), duration, simulate_args)
     paths: dict[int, Path] = {}
     failures: list[Failure] = []
-    bar = tqdm(total=len(todo), desc=f"sweep {base.name}", unit="run", file=sys.stderr,
-               disable=not sys.stderr.isatty() if progress is None else not progress)
+    bar = Progress(len(todo), f"sweep {base.name}", progress)
     with _executor(executor, processes) as pool:
         futures = {pool.submit(job, overrides): i for i, overrides in enumerate(todo)}
         for future in cf.as_completed(futures):
@@ -89,7 +86,7 @@ def sweep(spec: ManipulatorSpec | str | os.PathLike[str], grid: Variants, *,
             else:
                 paths[i] = folder / f"{i:03d}_{_slug(todo[i])}.npz"
                 run.save(paths[i])
-            bar.update()
+            bar.step(format_parameters(todo[i]))
     bar.close()
     return RunSet([paths[i] for i in sorted(paths)], failures=failures)
 

@@ -12,7 +12,7 @@ from typing import Protocol
 
 import numpy as np
 
-from maniplab.model.progress import Progress
+from maniplab.progress import Progress
 
 
 class Composition(Protocol):
