@@ -59,9 +59,13 @@ def test_bank_oil_spring_and_force_constant() -> None:
     bank = HydraulicBank([CYLINDER], 1e-3)
     assert bank.spring == [pytest.approx(2e-3**2 * 1.4e9 / 1e-3)]
     b0 = [0.0]
-    bank.prepare([0.1], [3e6, 0.0], [0.0], b0)  # closed valve: only leakage changes ΔP
-    rise = 1.4e9 / 1e-3 * (-1e-11 * 3e6 * 1e-3)
-    assert b0[0] == pytest.approx(2e-3 * (3e6 + rise / 2) + bank.spring[0] * 0.1, rel=1e-12)
+    rate = bank.prepare([0.1], [3e6, 0.0], [0.0], b0)  # closed valve: only leakage changes ΔP
+    assert b0[0] == pytest.approx(2e-3 * 3e6 + bank.spring[0] * 0.1, rel=1e-12)  # A ΔP + k q
+    assert rate[0] == pytest.approx(-1e-11 * 3e6, rel=1e-12)  # -Le ΔP, m³/s
+    rate = bank.prepare([0.1], [3e6, 2e-4], [0.0], b0)  # the valve closing: Q decays with τ
+    tau = CYLINDER.valve_tau
+    volume = 2e-4 * tau * -math.expm1(-1e-3 / tau)  # ∫Q over the step
+    assert rate[0] == pytest.approx(volume / 1e-3 - 1e-11 * 3e6, rel=1e-12)
 
 
 def test_torque_source() -> None:

@@ -168,3 +168,69 @@ def test_stuck_joints_follow_the_constrained_dynamics(stuck) -> None:
                 for i in (k, k + 1)]
         np.testing.assert_allclose(run["tau_fric"][k, stuck], (0.5 * (ends[0] + ends[1]))[stuck],
                                    rtol=1e-4)
+
+
+def erector_creep(dt: float, duration: float = 2.5) -> ml.Run:
+    """The erector with a 5 t segment, q2's valve opened to 0.2 A at 0.1 s and the other valves
+    closed: q2 lifts slowly, and q1 and q3 (closed cylinders, stiff oil springs coupled through
+    the arm's inertia, 2.6 to 67 Hz) creep by stick-slip with holding forces within a few per
+    cent of their break-away forces."""
+    return ml.simulate("erector", inputs={"q2": ml.signals.step(0.2, t0=0.1)}, duration=duration,
+                       initial={"dP": "gravity"}, dt=dt, sample_dt=1e-3,
+                       overrides={"end_effector.mass": 5000.0,
+                                  "joints.q2.actuator.leakage": 1e-11})
+
+
+def test_hybrid_friction_converges_at_the_default_step() -> None:
+    """The default step (1 ms) gives the stick-slip creep of a ten times finer step: q1's motion,
+    how long it sticks, and where q2 ends."""
+    coarse, fine = erector_creep(1e-3), erector_creep(1e-4)
+    late = fine.t > 1.25
+    ptp = [np.ptp(run.q[late, 0]) for run in (coarse, fine)]
+    assert ptp[0] == pytest.approx(ptp[1], rel=0.2)
+    assert coarse.q[-1, 1] == pytest.approx(fine.q[-1, 1], rel=0.01)
+    stuck = [np.mean(run["mode"][:, 0] == STICK) for run in (coarse, fine)]
+    assert stuck[1] > 0.3  # q1 does stick and slip
+    assert stuck[0] == pytest.approx(stuck[1], rel=0.2)
+
+
+def erector_to_the_stops() -> ml.Run:
+    """Valve steps that swing q1 and q3 and drive q4 and q6 onto their upper stops, q4 back."""
+    s = ml.signals
+    inputs = {"q1": s.step(0.3, t0=0.1) - s.step(0.6, t0=0.8), "q3": s.step(-0.3, t0=0.2),
+              "q4": s.step(1.0, t0=0.1) - s.step(2.0, t0=0.9), "q6": s.step(1.0, t0=0.1)}
+    return ml.simulate("erector", inputs=inputs, duration=1.5, initial={"dP": "gravity"})
+
+
+@pytest.mark.parametrize("case", ["creep", "stops"])
+def test_held_joints_obey_the_constrained_dynamics_at_every_step(case) -> None:
+    """At every sample, with the held joints those whose mode is STICK, AT_LOWER or AT_UPPER, the
+    force that holds them (the analytic model's constrained dynamics under the recorded actuator
+    and slip-friction forces) is within stiction's break-away force, and a stop only pushes:
+    transitions of neighbours are taken into account in the same step, not one step late."""
+    if case == "creep":
+        run, payload = erector_creep(1e-3, duration=1.0), 5000.0
+    else:
+        run, payload = erector_to_the_stops(), 4000.0
+    spec = ml.builtin_spec("erector").with_overrides({"end_effector.mass": payload})
+    model = ml.AnalyticModel(spec)
+    breakaway = np.array([j.friction.coulomb + j.friction.static for j in spec.joints])
+    mode = run["mode"]
+    held = mode != SLIP
+    if case == "stops":
+        assert np.any(mode[:, 3] == AT_UPPER) and np.any(mode[:, 5] == AT_UPPER)
+        assert mode[-1, 3] == SLIP  # q4 left its stop
+    tau = run["tau_act"] + np.where(held, 0.0, run["tau_fric"])  # slip friction incl. viscous
+    checked = 0
+    for pattern in np.unique(held, axis=0):
+        if not pattern.any():
+            continue
+        rows = np.flatnonzero((held == pattern).all(axis=1))
+        hold = model.constrained_dynamics(run.q[rows], run.qd[rows], tau[rows], pattern)[1]
+        m = mode[rows]
+        stuck = m == STICK
+        limit = np.broadcast_to(breakaway * (1.0 + 1e-6) + 1e-3, m.shape)
+        assert np.all(np.abs(hold[stuck]) <= limit[stuck])
+        assert np.all(hold[m == AT_UPPER] <= 1e-3) and np.all(hold[m == AT_LOWER] >= -1e-3)
+        checked += int(held[rows].sum())
+    assert checked > 1000

@@ -1,17 +1,17 @@
 """Mode transitions of the held joints: stuck by stiction, or resting on a limit.
 
-After each step the plant knows the force that held each held joint still over the step (the
-paper's eq. 8: the stuck joints' part of the constrained dynamics, see
-:class:`~maniplab.sim.plant.Plant`); before a step it predicts it from the change of the joint's
-own actuator force. :func:`transitions` applies the rules:
+At the start of each step the plant knows the force that holds each held joint still at that
+instant (the paper's eq. 8: the held joints' part of the constrained dynamics under the step's
+forces, see :meth:`~maniplab.sim.plant.Plant._settle`). :func:`transitions` applies the rules:
 
 - AT_UPPER is released when the stop had to pull (hold > 0), AT_LOWER when hold < 0; the joint
   becomes STICK if it has stick/slip friction (it may still be held by stiction), else SLIP;
 - STICK breaks away (-> SLIP) when |hold| exceeds the break-away force Fc + Fs; it starts slipping
   in the direction the other forces push it (opposite to the hold).
 
-Limits are decided first: when any limit releases, break-aways wait one step, because the other
-holding forces were computed with that (one-sided, wrongly active) constraint in place.
+Limits are decided first: when any limit releases, break-aways wait, because the other holding
+forces were computed with that (one-sided, wrongly active) constraint in place; the plant
+evaluates the holding forces again without it, in the same step, and calls this again.
 """
 
 from __future__ import annotations

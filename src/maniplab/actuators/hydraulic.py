@@ -11,8 +11,9 @@ native update of all hydraulic joints at once.
 
 The native scheme (why and how accurate: see :class:`HydraulicBank`) keeps the stiff part, the
 oil spring k = A²E/V between ΔP and the piston's motion, inside MuJoCo's RK4 step as an affine
-actuator force ``b0 - k q``, and advances the slow parts (valve flow, leakage) between steps with
-exact exponential updates and a midpoint correction, which makes it second order in dt.
+actuator force ``b0 - k q`` plus the ramp of the flow's pressure rise, and advances the slow
+parts (valve flow, leakage) between steps with exact exponential updates and a midpoint
+correction, which makes it second order in dt.
 """
 
 from __future__ import annotations
@@ -76,16 +77,21 @@ class HydraulicBank:
 
     1. :meth:`prepare`: the valve target Q* = i_v C sqrt(1 - |ΔP|/Ps) and the flow volume over
        the step, ∫Q = Q* dt + (Q - Q*) τ (1 - e^(-dt/τ)) (exact for a constant target). MuJoCo then
-       steps with the actuator force ``b0 - k q``, k = A²E/V, where
-       b0 = A ΔP + k q_n + A (E/V)(∫Q - Le ΔP dt)/2: the oil spring follows the piston inside every
-       RK4 stage, and the flow's pressure rise enters at its midpoint value.
+       steps with the actuator force ``b0 - k q``, k = A²E/V, b0 = A ΔP + k q_n, plus the force
+       A (E/V) r s of the flow's pressure rise a time s into the step, r = (∫Q - Le ΔP dt)/dt (the
+       plant's ``<joint>/flow`` integrator actuator): in every RK4 stage the force is the
+       cylinder's A ΔP at that instant, the oil spring following the piston and the flow's rise
+       its ramp. (Applied as a constant, its mid-step value, the rise put the force at the step's
+       start half a step's rise off, 300 N·m on the erector's moving q2, and made local position
+       errors of c dt³/12m, c the rise per second: on the erector's stiff coupled modes 200 times
+       RK4's own.)
     2. :meth:`finish`: ΔP' = e^(-λ dt) ΔP + (E/V) φ1(λ dt) (∫Q - A Δq), λ = Le E/V, with Δq the
        step's exact displacement; the valve target is then re-evaluated at the mid-step pressure
        (ΔP + ΔP')/2, ∫Q and ΔP' recomputed, and Q' = Q* + (Q - Q*) e^(-dt/τ).
 
     Measured on a 1-DOF lift against a Radau solution (tests/test_sim_hydraulic.py): relative
-    errors 7e-4 (ΔP) and 1e-5 (position) at dt = 1e-3 s, 1.8e-4 and 3e-6 at 5e-4 s (second order);
-    without the midpoint terms the scheme is first order (4e-2 in ΔP at 1e-3 s).
+    errors 3.8e-4 (ΔP) and 6.5e-6 (position) at dt = 1e-3 s, 9.4e-5 and 1.6e-6 at 5e-4 s (second
+    order).
 
     The arithmetic is plain Python over the joints: for the few joints of an arm it is about three
     times faster than numpy, whose cost per call (~0.5 µs) exceeds the work on six numbers.
@@ -107,7 +113,7 @@ class HydraulicBank:
         # the arithmetic below, folded into as few constants per cylinder as it needs
         self._before = [
             (j, a, c.valve_gain, c.inv_supply, c.dt - c.valve_memory, c.valve_memory,
-             c.area * (1.0 - 0.5 * c.c * c.leak_dt), 0.5 * c.area * c.c, c.spring)
+             c.area, c.leakage, 1.0 / c.dt, c.spring)
             for j, a, c in zip(joints, adrs, self.lanes)
         ]
         self._after = [
@@ -123,25 +129,31 @@ class HydraulicBank:
         return [lane.spring for lane in self.lanes]
 
     def prepare(self, q: Sequence[float], act: Sequence[float], u: Sequence[float],
-                b0: list[float]) -> None:
-        """Write each cylinder's constant term of the force ``b0 - k q`` for the coming step.
+                b0: list[float]) -> list[float]:
+        """The cylinders' forces over the coming step: ``b0 - k q`` plus the flow's ramp.
 
         Args:
             q: joint positions (all joints), rad or m.
             act: activations (ΔP Pa, Q m³/s at the cylinders' addresses).
             u: clipped commands (valve currents A at the cylinders' joints).
-            b0: written at the cylinders' joints, N or N·m.
+            b0: written at the cylinders' joints: A ΔP + k q, N or N·m (the force at the step's
+                start is then A ΔP, and the oil spring follows the piston).
+
+        Returns:
+            Each cylinder's mean net oil flow over the step, (∫Q - Le ΔP dt) / dt, m³/s: the
+            flow's pressure rise a time s into the step is (E/V) × rate × s.
         """
-        flows = []
-        for j, a, gain_v, inv_ps, rest, memory, p_coef, flow_coef, spring in self._before:
+        flows, rates = [], []
+        for j, a, gain_v, inv_ps, rest, memory, area, leakage, per_dt, spring in self._before:
             p, f = act[a], act[a + 1]
             root = 1.0 - abs(p) * inv_ps
             target = u[j] * gain_v * math.sqrt(root) if root > 0.0 else 0.0
             flow = target * rest + f * memory  # ∫Q over the step
             flows.append(flow)
-            # A (ΔP + (E/V)(∫Q - Le ΔP dt)/2) + k q
-            b0[j] = p_coef * p + flow_coef * flow + spring * q[j]
+            rates.append(flow * per_dt - leakage * p)
+            b0[j] = area * p + spring * q[j]
         self._flow = flows
+        return rates
 
     def finish(self, q0: Sequence[float], q1: Sequence[float], act0: Sequence[float],
                u: Sequence[float], act1: list[float]) -> bool:
@@ -178,7 +190,7 @@ class _Lane:
 
     area: float
     c: float            # E/V, Pa/m³
-    leak_dt: float      # Le dt
+    leakage: float      # Le, m³/(s Pa)
     valve_gain: float
     inv_supply: float
     decay: float        # e^(-λ dt)
@@ -193,7 +205,7 @@ class _Lane:
         c = p.bulk_modulus / p.volume
         lam = p.leakage * c
         return cls(
-            area=p.area, c=c, leak_dt=p.leakage * dt, valve_gain=p.valve_gain,
+            area=p.area, c=c, leakage=p.leakage, valve_gain=p.valve_gain,
             inv_supply=1.0 / p.supply_pressure, decay=math.exp(-lam * dt),
             gain=c * phi1(lam * dt), valve_decay=math.exp(-dt / p.valve_tau),
             valve_memory=-p.valve_tau * math.expm1(-dt / p.valve_tau), spring=p.area**2 * c, dt=dt,

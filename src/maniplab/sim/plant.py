@@ -3,32 +3,40 @@
 One step of length dt (the paper's template plant, its Fig. 5):
 
 1. **prepare** (at t): the commands are clipped and written to ``ctrl``; native hydraulic
-   actuators get the affine force ``b0 - k q`` of the coming step; slipping joints get their
-   Coulomb/Stribeck friction and LuGre joints their bristle force (held over the step, in
-   ``qfrc_applied``); held joints (STICK, AT_LOWER, AT_UPPER) whose own actuator force changed
-   are released at once if their new holding force calls for it (see :meth:`Plant._predict`); the
-   held joints are made immovable for MuJoCo (:meth:`Plant._arm`).
-2. **advance**: ``mj_step`` (RK4 by default) integrates q, q̇ and every MuJoCo-integrated state
-   (plugin states on the callback route): the free joints move with the constrained dynamics of
-   the held set (the paper's eq. 8) and the holding forces come out of the step; the automaton
-   (:mod:`~maniplab.actuators.automaton`) releases joints whose holding force breaks away or
-   pulls on a stop; held joints are put back exactly (q, q̇ = 0); slipping joints that reverse or
-   slow below ``stick_velocity`` stick (velocity reset to 0); joints past a limit are put on it
-   with zero velocity; the native hydraulic states and LuGre's z are advanced with the step's
-   exact displacement; a non-finite velocity or a pressure beyond 10 Ps stops the run.
+   actuators get the affine force ``b0 - k q`` of the coming step and their flow ramp (see
+   :mod:`~maniplab.sim.plant_model`); slipping joints get their Coulomb/Stribeck friction and
+   LuGre joints their bristle force (held over the step, in ``qfrc_applied``); the held joints
+   (STICK, AT_LOWER, AT_UPPER) are made immovable for MuJoCo (:meth:`Plant._arm`). MuJoCo then
+   evaluates the dynamics at t (the forward pass of ``mj_step``), which gives every held joint's
+   holding force and every free joint's acceleration at that instant, and the automaton decides
+   the step's modes on them (:meth:`Plant._settle`): break-aways and releases from stops
+   (:mod:`~maniplab.actuators.automaton`), slipping joints that stop within the step; after any
+   change the new held set is evaluated again, until the modes agree with the forces.
+2. **advance**: MuJoCo's integrator (RK4 by default) takes the step from that evaluation,
+   integrating q, q̇ and every MuJoCo-integrated state (plugin states on the callback route): the
+   free joints move with the constrained dynamics of the held set (the paper's eq. 8) and the
+   holding forces over the step come out of it; held joints are put back exactly (q, q̇ = 0);
+   slipping joints that reversed or slowed below ``stick_velocity`` stick (velocity reset to 0);
+   joints past a limit are put on it with zero velocity; the native hydraulic states and LuGre's
+   z are advanced with the step's exact displacement; a non-finite velocity or a pressure beyond
+   10 Ps stops the run.
 
 Holding is exact, not a stiff spring: a held joint gets an armature of 1e12 times the arm's
 largest inertia, so MuJoCo's own factorisation of M solves the constrained dynamics (the free
 joints' accelerations M_FF⁻¹(τ_F - b_F) to ~1e-12 relative) in every RK4 stage, and the force that
-held the joint over the step is read back as -I Δq̇ / dt. That costs nothing beyond the step
-itself; computing it with an extra forward pass and a solve of (M⁻¹)_HH would about double the
-Python time of a step. Mode changes take effect at step boundaries (first order in the event
-times, like the paper's automaton).
+holds the joint is read back as -I q̈ (at t, for the automaton) and -I Δq̇ / dt (over the step, for
+the record). That costs nothing beyond the step itself: the evaluation at t is the forward pass
+``mj_step`` makes anyway, split off (``mj_forward`` + ``mj_RungeKutta``); only a step with a
+transition evaluates again. Mode changes take effect at step boundaries; events inside a step
+are put on the nearer boundary where the step's start predicts them (a velocity reaching zero
+or ``stick_velocity``), else on its end.
 
 All actuator and friction states live in ``d.act`` (ΔP, Q of a cylinder; a plugin's states; LuGre's
 z in actuator ``<joint>/lugre``), so ``mj_getState(..., mjSTATE_ACT)``, resets and keyframes include
-them. The friction/limit modes are a function of that state (a held joint has q̇ = 0 exactly and
-sits on its limit, or has stick/slip friction), so :meth:`Plant.restore` recomputes them.
+them (the cylinders' flow ramps, actuators ``<joint>/flow``, are zero between steps). The
+friction/limit modes are a function of that state (a held joint has q̇ = 0 exactly and sits on its
+limit, or has stick/slip friction), so :meth:`Plant.restore` recomputes them; the next step's
+start checks them against the forces.
 
 Routes: on the **native** route (default) the torque source is MuJoCo's motor, the hydraulic
 cylinders are advanced by :class:`~maniplab.actuators.hydraulic.HydraulicBank` and LuGre's z by
@@ -36,7 +44,7 @@ an exact exponential update; no MuJoCo callback is used. Plugin actuators (and e
 LuGre, with ``route="callbacks"``) are integrated by MuJoCo's RK4 itself through
 ``mjcb_act_dyn``/``mjcb_act_bias``, installed only while the plant steps
 (:mod:`maniplab.sim.callbacks`). On the erector (6 hydraulic joints, RK4, dt = 1 ms) the native
-route costs about 3.8 bare ``mj_step`` per step, the callback route about 15 (README).
+route costs about 4 bare ``mj_step`` per step, the callback route about 15 (README).
 
 The per-step work is plain Python over the joints' numbers: for the few joints of an arm that is
 several times faster than numpy, whose cost per call (~0.5 µs) exceeds the arithmetic.
@@ -111,6 +119,7 @@ class Plant:
             raise InputError(f"unknown route {route!r}; expected 'native' or 'callbacks'")
         self.route = route
         self.integrator = _integrator(integrator)
+        self._integrate = _INTEGRATE[self.integrator]
         self.n = self.spec.n
         self.joint_names = self.spec.joint_names
         self.actuators: list[ActuatorPlugin] = [plugin_of(j) for j in self.spec.joints]
@@ -123,7 +132,7 @@ class Plant:
         self.data = mujoco.MjData(self.model)
         d = self.data  # views into the data, cached: each attribute access makes a new array
         self._qpos, self._qvel, self._act = d.qpos, d.qvel, d.act
-        self._ctrl, self._applied = d.ctrl[: self.n], d.qfrc_applied
+        self._ctrl, self._all_ctrl, self._applied = d.ctrl[: self.n], d.ctrl, d.qfrc_applied
         self._warm = d.qacc_warmstart
         self._warnings = [(name, d.warning[int(getattr(mujoco.mjtWarning, f"mjWARN_BAD{name}"))])
                           for name in ("QPOS", "QVEL", "QACC")]
@@ -173,13 +182,12 @@ class Plant:
                                     joints=hj, adrs=[adr[i] for i in hj]) if hj else None)
         self._bias = self.model.actuator_biasprm[: self.n, 0]  # a view into the model
         self._b0 = [0.0] * self.n
-        self._spring = [0.0] * self.n
-        for j, k in zip(hj, self._bank.spring if self._bank else []):
-            self._spring[j] = k
-        self._own_kind = [
-            ("hydraulic" if j in hj else "torque" if native[j] else None)
-            for j in range(self.n)
-        ]
+        # the cylinders' flow actuators (<joint>/flow) come last, one activation each
+        first = self.model.nu - len(hj)
+        self._ctrl_pad = [0.0] * (first - self.n)  # controls of the LuGre actuators between
+        self._flow_act = slice(adr[first], adr[first] + len(hj)) if hj else slice(0, 0)
+        self._flow_zero = [0.0] * len(hj)
+        self._flow_ramp = self.integrator == int(mujoco.mjtIntegrator.mjINT_RK4)
         cylinders = [i for i, a in enumerate(self.actuators) if isinstance(a, HydraulicCylinder)]
         self._pressure_checks = [
             (i, adr[i], PRESSURE_LIMIT * self.actuators[i].params.supply_pressure)
@@ -215,6 +223,8 @@ class Plant:
                          for j in self.limits.limited]
         self._armature = self.model.dof_armature.copy()
         self._hold_inertia = HOLD_INERTIA * _largest_inertia(self.model)
+        self._slip_acc = [b / self._hold_inertia for b in self.hybrid.breakaway]
+        """The acceleration -h / I_hold of a held joint whose holding force h is Fc + Fs."""
         self._held: list[int] = []
 
     # --- state -------------------------------------------------------------------------------
@@ -315,9 +325,10 @@ class Plant:
                 modes.append(_STICK if can_stick[j] and v[j] == 0.0 else _SLIP)
             if modes[j] in (_LOWER, _UPPER):
                 self.data.qvel[j] = 0.0
+        if self._bank is not None:
+            self.data.act[self._flow_act] = 0.0  # the flow ramps start from zero in every step
         self._modes = modes
         self._direction = [1.0] * self.n
-        self._last_hold: dict[int, tuple[float, float]] = {}
         for _, warning in getattr(self, "_warnings", ()):
             warning.number = 0
         self._prepared = False
@@ -408,8 +419,10 @@ class Plant:
     def prepare(self, u: list[float]) -> None:
         """First half of a step at the current time (call inside :meth:`scope`).
 
-        Clips and writes the commands, sets the actuator and friction forces for the step and
-        makes the held joints immovable (see :meth:`_arm`).
+        Clips and writes the commands, sets the actuator and friction forces for the step, makes
+        the held joints immovable (see :meth:`_arm`) and evaluates the dynamics at the step's start
+        (MuJoCo's forward pass, which :meth:`advance` integrates from); from it the automaton
+        decides the modes of the step (see :meth:`_settle`).
 
         Args:
             u: commands, one per joint (valve current A, or force N / torque N·m).
@@ -417,28 +430,45 @@ class Plant:
         n = self.n
         u = [x if -lim <= x <= lim else (lim if x > 0.0 else -lim)
              for x, lim in zip(u, self._command_limit)]
-        self._ctrl[:] = u
         q0, v0, act = self._qpos.tolist(), self._qvel.tolist(), self._act.tolist()
         modes = self._modes
-        if self._bank is not None:
-            self._bank.prepare(q0, act, u, self._b0)
+        if self._bank is None:
+            self._ctrl[:] = u
+        else:
+            rates = self._bank.prepare(q0, act, u, self._b0)
             self._bias[:] = self._b0
+            if self._flow_ramp:  # RK4 sees the flow's pressure rise as a ramp in its stages
+                self._all_ctrl[:] = u + self._ctrl_pad + rates  # (the ramps start at 0)
+            else:  # single-stage integrators: its mean over the step, held
+                self._all_ctrl[:] = u + self._ctrl_pad + self._flow_zero
+                half = 0.5 * self.dt
+                self._act[self._flow_act] = [half * r for r in rates]
         self._u = u
-        if self._last_hold:
-            self._predict(q0)
-        fric = [0.0] * n
+        fric = self._forces(v0, act)
+        held = [j for j in range(n) if modes[j] != _SLIP]
+        if held != self._held:
+            self._arm(held)
+        m, d = self.model, self.data
+        mujoco.mj_checkPos(m, d)  # what mj_step does before its forward pass
+        mujoco.mj_checkVel(m, d)
+        mujoco.mj_forward(m, d)
+        if self._held or self._sticky:
+            fric = self._settle(v0, act, fric)
+        mujoco.mj_checkAcc(m, d)
+        self._fric = fric
+        self._q0, self._v0, self._act0 = q0, v0, act
+        self._prepared = True
+
+    def _forces(self, v0: list[float], act: list[float]) -> list[float]:
+        """Slip and LuGre friction of the step, written to ``qfrc_applied``, N or N·m, (n,)."""
+        fric = [0.0] * self.n
         if self._slip:
             self._slip_friction(v0, fric)
         for lugre, adr in self._lugre:
             j = lugre.joint
             fric[j] += lugre.force(act[adr], v0[j])
         self._applied[:] = fric
-        held = [j for j in range(n) if modes[j] != _SLIP]
-        if held != self._held:
-            self._arm(held)
-        self._fric = fric
-        self._q0, self._v0, self._act0 = q0, v0, act
-        self._prepared = True
+        return fric
 
     def _slip_friction(self, v0: list[float], fric: list[float]) -> None:
         """Coulomb + Stribeck force of the slipping hybrid joints, held over the step.
@@ -459,50 +489,83 @@ class Plant:
                     v = mid if mid * v > 0.0 else 0.5 * v
                 fric[j] = slip_force(v, direction[j], coulomb, static, stribeck)
 
-    def _own_force(self, j: int, q0: list[float]) -> float | None:
-        """The force joint j's own actuator puts on it over the prepared step, when known before
-        the step (native torque and hydraulic actuators), N or N·m."""
-        kind = self._own_kind[j]
-        if kind == "torque":
-            return self._u[j]
-        if kind == "hydraulic":
-            return self._b0[j] - self._spring[j] * q0[j]  # A ΔP at mid-step
-        return None
+    def _settle(self, v0: list[float], act: list[float], fric: list[float]) -> list[float]:
+        """The automaton at the step's start, on the dynamics MuJoCo just evaluated there.
 
-    def _predict(self, q0: list[float]) -> None:
-        """Transitions of held joints decided before the step, from their own force's change.
+        The forward pass gives every held joint's holding force at this instant, h = -I_hold q̈
+        (the constrained dynamics of the whole held set under the step's actuator and friction
+        forces), and every slipping joint's acceleration a. From them:
 
-        A held joint's holding force changes by exactly minus any change of a force applied to
-        it (the constraint absorbs it; the free joints do not feel it). So when a joint's own
-        actuator force has changed since the last step, its new holding force is known before
-        stepping, and a break-away or release it causes takes effect at once instead of a step
-        late. Changes coming from the other joints are still seen after the step.
+        - a slipping joint with stick/slip friction sticks now (velocity reset to zero) when it
+          decelerates and either reaches zero velocity within the step (v and v + a dt of
+          opposite signs) or is below ``stick_velocity`` by the middle of the step
+          (|v + a dt/2| < stick_velocity: the paper's SLIP -> STICK rule, its event rounded to
+          the nearer step boundary); a joint at rest that was released in one direction but
+          accelerates in the other sticks too. Left slipping over a step in which it reverses,
+          its slip friction would push it on through zero for the rest of the step, and drive
+          its neighbours with that wrong force through the inertia coupling;
+        - held joints whose holding force breaks away or pulls on a stop are released
+          (:func:`~maniplab.actuators.automaton.transitions`).
+
+        After any change the forces are set anew and MuJoCo evaluates the new held set, so every
+        held joint's holding force is checked again in the same step with its neighbours'
+        transitions in place (a newly stuck joint pushed harder than Fc + Fs reverses at once; a
+        release or a stick shifts the others' holding forces). This repeats until nothing
+        changes (at most ``2 n + 2`` evaluations); a step without transitions costs one forward
+        pass, the one ``mj_step`` would have made anyway.
+
+        Returns:
+            The friction forces of the step, N or N·m, (n,).
         """
-        modes, breakaway = self._modes, self.hybrid.breakaway
-        joints, holds = [], []
-        change = False
-        for j, (hold, own) in self._last_hold.items():
-            mode = modes[j]
-            if mode == _SLIP:
-                continue
-            h = hold - (self._own_force(j, q0) - own)
-            joints.append(j)
-            holds.append(h)
-            if mode == _STICK:
-                change = change or abs(h) > breakaway[j]
-            else:
-                change = change or (h > 0.0 if mode == _UPPER else h < 0.0)
-        if not change:
-            return
-        new, direction = transitions([modes[j] for j in joints], holds,
-                                     [self.hybrid.breakaway[j] for j in joints],
-                                     [self.hybrid.can_stick[j] for j in joints])
-        for j, mode, sign in zip(joints, new, direction):
+        modes, dt = self._modes, self.dt
+        half = 0.5 * dt
+        m, d = self.model, self.data
+        qacc, slip_acc = d.qacc, self._slip_acc
+        for _ in range(2 * self.n + 2):
+            acc = qacc.tolist()
+            changed = False
+            for j, stick_velocity in self._sticky:
+                if modes[j] == _SLIP:
+                    v, a = v0[j], acc[j]
+                    if v > 0.0:
+                        hit = a < 0.0 and (v + a * dt <= 0.0 or v + a * half < stick_velocity)
+                    elif v < 0.0:
+                        hit = a > 0.0 and (v + a * dt >= 0.0 or v + a * half > -stick_velocity)
+                    else:
+                        hit = a * self._direction[j] < 0.0
+                    if hit:
+                        modes[j] = _STICK
+                        v0[j] = 0.0
+                        changed = True
+            for j in self._held:  # h = -I_hold q̈ beyond Fc + Fs, or pulling on its stop?
+                a, mode = acc[j], modes[j]
+                if (a > slip_acc[j] or a < -slip_acc[j] if mode == _STICK
+                        else a < 0.0 if mode == _UPPER else a > 0.0):
+                    changed = self._release(acc) or changed
+                    break
+            if not changed:
+                break
+            self._qvel[:] = v0
+            fric = self._forces(v0, act)
+            self._arm([j for j in range(self.n) if modes[j] != _SLIP])
+            mujoco.mj_forward(m, d)
+        return fric
+
+    def _release(self, acc: list[float]) -> bool:
+        """Transitions of the held joints from their holding forces -I_hold q̈ (``acc``: q̈ of
+        all joints); True if a mode changed."""
+        modes, direction, scale = self._modes, self._direction, -self._hold_inertia
+        held = self._held
+        new, sign = transitions([modes[j] for j in held], [scale * acc[j] for j in held],
+                                [self.hybrid.breakaway[j] for j in held],
+                                [self.hybrid.can_stick[j] for j in held])
+        changed = False
+        for j, mode, s in zip(held, new, sign):
+            changed = changed or mode != modes[j]
             modes[j] = mode
-            if sign:
-                self._direction[j] = sign
-            if mode == _SLIP:
-                del self._last_hold[j]
+            if s:
+                direction[j] = s
+        return changed
 
     def _arm(self, held: list[int]) -> None:
         """Make the ``held`` joints immovable for MuJoCo: armature + HOLD_INERTIA on each.
@@ -511,8 +574,9 @@ class Plant:
         M_FF q̈_F = τ_F - b_F (the paper's eq. 8). Raising the held joints' inertia by
         ``HOLD_INERTIA`` times the arm's largest inertia makes MuJoCo's own factorisation solve
         exactly that, to about 1e-12 relative, inside every RK4 stage; the holding force is then
-        read back from the step (see :meth:`advance`). Position and velocity of the held joints
-        are reset after each step, so their residual motion (~1e-12) does not accumulate.
+        read back from the accelerations (-I_hold q̈, see :meth:`_settle` and :meth:`advance`).
+        Position and velocity of the held joints are reset after each step, so their residual
+        motion (~1e-12) does not accumulate.
         """
         armature = self._armature.copy()
         armature[held] += self._hold_inertia
@@ -522,14 +586,16 @@ class Plant:
     def advance(self) -> None:
         """Second half of a step (after :meth:`prepare`, inside :meth:`scope`): integrate dt.
 
-        Then: holding forces of the held joints (h = -I_hold Δq̇ / dt, the RK4 average over the
-        step) and their transitions; held joints back to their position at rest; slipping joints
-        that stick; joints past a limit put on it; hydraulic and LuGre states advanced.
+        Then: holding forces of the held joints over the step (h = -I_hold Δq̇ / dt, the RK4
+        average; recorded as their friction or stop force); held joints back to their position at
+        rest; slipping joints that reversed or slowed below ``stick_velocity`` stick; joints past
+        a limit are put on it; hydraulic and LuGre states advanced. Whether a held joint breaks
+        away or leaves its stop is decided at the next step's start (:meth:`_settle`).
         """
         if not self._prepared:
             raise RuntimeError("Plant.advance() needs a prepare() first")
         m, d, dt = self.model, self.data, self.dt
-        mujoco.mj_step(m, d)
+        self._integrate(m, d)
         self._prepared = False
         q0, v0, modes = self._q0, self._v0, self._modes
         q1, v1 = self._qpos.tolist(), self._qvel.tolist()
@@ -537,7 +603,7 @@ class Plant:
         moved = bool(self._held)
         if moved:
             limit = [0.0] * self.n
-            self._release(q0, q1, v1, fric, limit)
+            self._hold_forces(q0, q1, v1, fric, limit)
         for j, stick_velocity in self._sticky:  # friction.sticks, inlined
             if modes[j] == _SLIP:
                 a, b = v0[j], v1[j]
@@ -560,8 +626,10 @@ class Plant:
             self._unstable_motion()
         self._tau_applied, self._tau_limit = fric, limit
         act = self._act.tolist()
-        if self._bank is not None and not self._bank.finish(q0, q1, self._act0, self._u, act):
-            self._check_pressures(act)
+        if self._bank is not None:
+            act[self._flow_act] = self._flow_zero  # the flows' scratch activations
+            if not self._bank.finish(q0, q1, self._act0, self._u, act):
+                self._check_pressures(act)
         for lugre, adr in self._lugre:
             j = lugre.joint
             act[adr] = lugre.advance(self._act0[adr], (q1[j] - q0[j]) / dt, dt)
@@ -569,35 +637,18 @@ class Plant:
         if self._integrated_cylinders:
             self._check_pressures(act)
 
-    def _release(self, q0: list[float], q1: list[float], v1: list[float], fric: list[float],
-                 limit: list[float]) -> None:
-        """Holding forces of the held joints over the step, their reset and transitions."""
-        held, modes = self._held, self._modes
-        scale = -self._hold_inertia / self.dt
-        breakaway = self.hybrid.breakaway
-        hold = []
-        change = False
-        for j in held:
+    def _hold_forces(self, q0: list[float], q1: list[float], v1: list[float], fric: list[float],
+                     limit: list[float]) -> None:
+        """Holding forces of the held joints over the step (into ``fric`` or ``limit``), and
+        the held joints put back at rest where they were."""
+        modes, scale = self._modes, -self._hold_inertia / self.dt
+        for j in self._held:
             h = scale * v1[j]  # v1 - 0 = the step's average acceleration times dt
-            hold.append(h)
             q1[j], v1[j] = q0[j], 0.0
-            mode = modes[j]
-            if mode == _STICK:
+            if modes[j] == _STICK:
                 fric[j] += h
-                change = change or abs(h) > breakaway[j]
             else:
                 limit[j] = h
-                change = change or (h > 0.0 if mode == _UPPER else h < 0.0)
-        if change:
-            new, direction = transitions([modes[j] for j in held], hold,
-                                         [breakaway[j] for j in held],
-                                         [self.hybrid.can_stick[j] for j in held])
-            for j, mode, sign in zip(held, new, direction):
-                modes[j] = mode
-                if sign:
-                    self._direction[j] = sign
-        self._last_hold = {j: (h, self._own_force(j, q0)) for j, h in zip(held, hold)
-                           if modes[j] != _SLIP and self._own_kind[j] is not None}
 
     @property
     def tau_fric(self) -> np.ndarray:
@@ -654,6 +705,13 @@ _INTEGRATORS = {
     "Euler": mujoco.mjtIntegrator.mjINT_EULER,
     "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT,
     "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
+}
+
+_INTEGRATE = {  # what mj_step does after its forward pass, which Plant.prepare makes
+    int(mujoco.mjtIntegrator.mjINT_RK4): lambda m, d: mujoco.mj_RungeKutta(m, d, 4),
+    int(mujoco.mjtIntegrator.mjINT_EULER): mujoco.mj_Euler,
+    int(mujoco.mjtIntegrator.mjINT_IMPLICIT): mujoco.mj_implicit,
+    int(mujoco.mjtIntegrator.mjINT_IMPLICITFAST): mujoco.mj_implicit,
 }
 
 

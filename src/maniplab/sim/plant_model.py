@@ -8,9 +8,13 @@ Changes to the arm's model, all made on the MjSpec before compiling:
 - viscous friction (``friction.viscous``, LuGre's σ2) becomes the joint's damping, so MuJoCo
   integrates it inside the step;
 - a hydraulic actuator on the native route gets a fixed zero gain and an affine bias
-  ``b0 - k q`` (k = A²E/V, b0 set before every step; see
+  ``b0 - k q`` (k = A²E/V, b0 = A ΔP + k q at the step's start, set before every step; see
   :class:`~maniplab.actuators.hydraulic.HydraulicBank`); its user dynamics keep ΔP and Q in
-  ``d.act`` untouched by MuJoCo's integrator;
+  ``d.act`` untouched by MuJoCo's integrator. Each also gets an actuator ``<joint>/flow`` with
+  integrator dynamics and the fixed gain A E/V: the plant sets its activation to zero and its
+  control to the step's net oil flow into the cylinder (m³/s) before every step, so MuJoCo's RK4
+  sees the flow's pressure rise as the ramp it is, A (E/V) ∫Q, in every stage. These follow
+  all other actuators;
 - an actuator on the callback route (plugins) gets one user activation per state, a zero gain
   and a user bias: MuJoCo integrates its states and asks for its force through the plant's
   callbacks (:mod:`maniplab.sim.callbacks`);
@@ -34,6 +38,9 @@ from maniplab.spec import FrictionModel, HydraulicActuator, ManipulatorSpec
 LUGRE_SUFFIX = "/lugre"
 """Name of a LuGre joint's bristle-state actuator: ``<joint>/lugre``."""
 
+FLOW_SUFFIX = "/flow"
+"""Name of a native hydraulic joint's flow actuator: ``<joint>/flow``."""
+
 _USER = mujoco.mjtDyn.mjDYN_USER
 
 
@@ -51,7 +58,8 @@ def build_plant_model(spec: ManipulatorSpec, *, dt: float, integrator: int,
         lugre_integrated: LuGre's z is integrated by MuJoCo through callbacks (callback route).
 
     Returns:
-        The model; actuator i < n drives joint i, LuGre state actuators follow.
+        The model; actuator i < n drives joint i, LuGre state actuators follow, then the flow
+        actuators of the native hydraulic joints (in joint order).
     """
     s = build_mjspec(spec)
     s.option.timestep = dt
@@ -71,6 +79,9 @@ def build_plant_model(spec: ManipulatorSpec, *, dt: float, integrator: int,
             joints[joint.name].damping = [joint.friction.viscous, 0.0, 0.0]
         if joint.friction.model is FrictionModel.lugre:
             _add_bristles(s, joint.name, integrated=lugre_integrated)
+    for joint, is_native in zip(spec.joints, native):
+        if is_native and isinstance(joint.actuator, HydraulicActuator):
+            _add_flow(s, joint.name, joint.actuator)
     with suspended():
         model = compile_checked(s, spec)
     check_drives_mass(model, spec)
@@ -83,6 +94,18 @@ def _affine_cylinder(act: mujoco.MjsActuator, cylinder: HydraulicActuator, dt: f
     act.biastype = mujoco.mjtBias.mjBIAS_AFFINE
     spring = float(HydraulicBank([cylinder], dt).spring[0])
     act.biasprm = [0.0, -spring] + [0.0] * 8
+
+
+def _add_flow(s: mujoco.MjSpec, joint: str, cylinder: HydraulicActuator) -> None:
+    """The cylinder's flow actuator: activation = oil volume let in since the step's start (m³),
+    control = its rate (m³/s), force = A (E/V) × activation, the flow's pressure rise."""
+    act = s.add_actuator(name=joint + FLOW_SUFFIX, target=joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+    act.dyntype = mujoco.mjtDyn.mjDYN_INTEGRATOR
+    act.actlimited = mujoco.mjtLimited.mjLIMITED_FALSE
+    act.gaintype = mujoco.mjtGain.mjGAIN_FIXED
+    act.gainprm = [cylinder.area * cylinder.bulk_modulus / cylinder.volume] + [0.0] * 9
+    act.biastype = mujoco.mjtBias.mjBIAS_NONE
+    act.ctrllimited = mujoco.mjtLimited.mjLIMITED_FALSE
 
 
 def _callback_actuator(act: mujoco.MjsActuator, k: int) -> None:
