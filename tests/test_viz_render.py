@@ -168,9 +168,8 @@ def two_variants() -> list[Run]:
 
 def test_grid_tiles_equal_single_renders_and_survive_encoding(tmp_path: Path) -> None:
     runs, fps, width, height = two_variants(), 10, 320, 160
-    grid = viz.render_grid(runs, width=width, height=height, fps=fps)
-    layout = viz.grid_layout(2, width, height)
-    assert (layout.cols, layout.rows) == (2, 1)
+    grid = viz.render_grid(runs, width=width, height=height, fps=fps, cols=2)
+    layout = viz.grid_layout(2, width, height, cols=2)
     framing = viz.frame_runs(runs, fps)
     singles = [ml.render(run, width=layout.tile_width, height=layout.tile_height, fps=fps,
                          camera=framing, text=False) for run in runs]
@@ -190,12 +189,22 @@ def test_grid_tiles_equal_single_renders_and_survive_encoding(tmp_path: Path) ->
 
 def test_grid_with_a_named_camera_uses_each_arms_camera() -> None:
     runs = two_variants()
-    grid = viz.render_grid(runs, width=320, height=160, fps=5, camera="overview", text=False)
-    layout = viz.grid_layout(2, 320, 160, text_bar=False)
+    grid = viz.render_grid(runs, width=320, height=160, fps=5, camera="overview", text=False,
+                           cols=2)
+    layout = viz.grid_layout(2, 320, 160, cols=2, text_bar=False)
     x, y = layout.view_origin(1)
     single = ml.render(runs[1], width=layout.tile_width, height=layout.tile_height, fps=5,
                        camera="overview", text=False)
     assert np.array_equal(grid[:, y:y + layout.tile_height, x:x + layout.tile_width], single)
+
+
+def test_grid_layout_gives_the_arms_the_most_room() -> None:
+    wide, tall = 2.0, 0.5  # motions twice as wide as high, or half
+    assert viz.grid_layout(4, 1280, 720, aspect=wide).cols == 2  # 2x2 tiles of 640x310
+    assert viz.grid_layout(4, 1280, 720, aspect=tall).cols == 4  # 4x1 tiles of 320x654
+    assert viz.grid_layout(2, 1280, 720).cols == 2
+    with pytest.raises(RenderError, match="do not fit"):
+        viz.grid_layout(1000, 320, 160)
 
 
 def test_captions_name_the_differing_parameters() -> None:

@@ -70,3 +70,13 @@ def test_without_a_mode_signal_limits_come_from_the_positions() -> None:
     assert modes.tolist() == [[slip, slip, slip], [up, low, low], [up, up, up]]
     motion = sample(run_of(np.arange(3.0), q, spec="crane3"), np.arange(3.0))
     assert np.array_equal(motion.modes, modes)
+
+
+def test_samples_between_frames_are_the_runs_own() -> None:
+    t = np.arange(11) / 10  # 10 Hz
+    q = np.column_stack([t, -t])
+    motion = sample(run_of(t, q), frame_times(0.0, 1.0, 2.5))  # frames at 0, 0.4, 0.8 s
+    assert motion.samples_between(0).shape == (0, 2)
+    np.testing.assert_allclose(motion.samples_between(1)[:, 0], [0.1, 0.2, 0.3])
+    np.testing.assert_allclose(motion.samples_between(2)[:, 0], [0.5, 0.6, 0.7])
+    np.testing.assert_allclose(motion.samples_between(2, most=2)[:, 0], [0.5, 0.7])

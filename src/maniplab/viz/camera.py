@@ -48,6 +48,12 @@ class Framing:
         """Half the largest extent of the swept geoms, m."""
         return float(np.max(np.ptp(self.points, axis=0))) / 2.0
 
+    @property
+    def aspect(self) -> float:
+        """Width over height of the swept geoms as the camera sees them (ignoring perspective)."""
+        x, y, _ = _camera_axes(self.view, self.up)
+        return float(np.ptp(self.points @ x) / max(np.ptp(self.points @ y), 1e-9))
+
 
 def frame_motions(arms: Sequence[ArmView], motions: Sequence[Motion]) -> Framing:
     """The framing that shows every arm over its whole motion (one shared view for comparisons).

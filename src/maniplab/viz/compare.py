@@ -23,8 +23,8 @@ from maniplab.viz.arm import ArmView
 from maniplab.viz.camera import AUTO, Framing, frame_motions
 from maniplab.viz.frames import FrameStream, collect
 from maniplab.viz.gl import RenderError
-from maniplab.viz.plot_strip import PlotStrip, select
 from maniplab.viz.look import Look
+from maniplab.viz.plot_strip import PlotStrip, select
 from maniplab.viz.render import check_size, state_key, strip_height
 from maniplab.viz.scene import SceneView
 from maniplab.viz.timeline import Motion, frame_times, run_span, sample
@@ -81,11 +81,17 @@ class GridLayout:
         return col * self.tile_width, self.header + row * (self.band + self.tile_height) + self.band
 
 
+DEFAULT_ASPECT = 4.0 / 3.0
+"""Motion aspect assumed for a grid's layout when the camera is not the automatic one."""
+
+
 def grid_layout(count: int, width: int, height: int, *, cols: int | None = None,
-                text_bar: bool = True, plot: str | None = None) -> GridLayout:
+                text_bar: bool = True, plot: str | None = None,
+                aspect: float = DEFAULT_ASPECT) -> GridLayout:
     """The layout of ``count`` tiles in a ``width`` x ``height`` frame.
 
-    Without ``cols``, the number of columns that gives the largest tiles (by their shorter side).
+    Without ``cols``, the number of columns that shows the arms largest: the one whose tiles hold
+    the largest picture of width/height ``aspect`` (the motion's, as the camera sees it).
 
     Raises:
         RenderError: the tiles would be too small.
@@ -99,7 +105,7 @@ def grid_layout(count: int, width: int, height: int, *, cols: int | None = None,
         return width // c, free // math.ceil(count / c) - band
 
     if cols is None:
-        cols = max(range(1, count + 1), key=lambda c: min(tile(c)))
+        cols = max(range(1, count + 1), key=lambda c: min(tile(c)[0], tile(c)[1] * aspect))
     if cols < 1:
         raise RenderError(f"cols must be at least 1, got {cols}")
     tile_width, tile_height = tile(cols)
@@ -131,8 +137,10 @@ class Grid:
         t0, t1 = run_span(runs)
         self.times = frame_times(t0, t1, fps)
         motions = [sample(run, self.times) for run in runs]
+        look = dataclasses.replace(look, camera=_shared_camera(look.camera, motions))
+        aspect = look.camera.aspect if isinstance(look.camera, Framing) else DEFAULT_ASPECT
         self.layout = layout = grid_layout(len(runs), width, height, cols=cols,
-                                           text_bar=look.text, plot=look.plot)
+                                           text_bar=look.text, plot=look.plot, aspect=aspect)
         size = caption_size(height)
         self.captions = [text.text_patch(c, size, background=palette.BACKGROUND,
                                          swatch=palette.run_colour(k), width=layout.tile_width)
@@ -141,7 +149,6 @@ class Grid:
         modes = np.concatenate([m.modes for m in motions], axis=1)
         self.key = state_key(modes, size) if look.text else None
         self.strip = _strip(runs, look.plot, width, layout.strip, t0, t1)
-        look = dataclasses.replace(look, camera=_shared_camera(look.camera, motions))
         self.views: list[SceneView] = []
         try:
             for motion in motions:

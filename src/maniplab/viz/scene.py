@@ -40,13 +40,16 @@ class SceneView:
 
     def __init__(self, motions: Sequence[Motion], width: int, height: int, look: Look) -> None:
         self.motions = list(motions)
-        camera = look.camera
         self.arms = [ArmView(m.run.spec) for m in self.motions]
-        framing = camera if isinstance(camera, cameras.Framing) else None
-        if camera == cameras.AUTO:
-            framing = cameras.frame_motions(self.arms, self.motions)
-        self.cameras = cameras.resolve(framing or camera, self.arms, width / height)
-        scale = framing.size if framing else _scale(self.arms[0])
+        camera = look.camera
+        if isinstance(camera, str) and camera == cameras.AUTO:
+            camera = cameras.frame_motions(self.arms, self.motions)
+        self.cameras = cameras.resolve(camera, self.arms, width / height)
+        # the path's point spacing follows the size of what is in view
+        if isinstance(camera, cameras.Framing):
+            scale = camera.size
+        else:
+            scale = float(self.arms[0].model.stat.extent)
         single = len(self.motions) == 1
         self.trails = [Trail(scale, line_width(height),
                              palette.PATH if single else palette.run_colour(k))
@@ -63,11 +66,6 @@ class SceneView:
         self.canvas = Canvas(self.arms[0].model, width, height, samples=look.samples)
         self._next = 0
 
-    @property
-    def frame_count(self) -> int:
-        """F, the number of frames."""
-        return len(self.motions[0].times)
-
     def frame(self, k: int) -> np.ndarray:
         """Image of frame ``k``, uint8, shape (height, width, 3); reused by the next call.
 
@@ -76,6 +74,10 @@ class SceneView:
         if k != self._next:
             raise ValueError(f"frames are drawn in order; expected frame {self._next}, got {k}")
         self._next += 1
+        for arm, motion, trail in zip(self.arms, self.motions, self.trails):
+            for q in motion.samples_between(k):
+                arm.pose(q)
+                trail.extend(arm.end_effector_position)
         scene, all_geoms = self.scene, int(mujoco.mjtCatBit.mjCAT_ALL)
         for i, (arm, motion) in enumerate(zip(self.arms, self.motions)):
             arm.pose(motion.q[k])
@@ -104,7 +106,3 @@ class SceneView:
     def __exit__(self, *_: object) -> None:
         self.close()
 
-
-def _scale(arm: ArmView) -> float:
-    """Size of the scene for a named camera: the model's extent, m."""
-    return float(arm.model.stat.extent)

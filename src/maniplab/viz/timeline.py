@@ -95,6 +95,20 @@ class Motion:
     q: np.ndarray
     modes: np.ndarray
 
+    def samples_between(self, k: int, most: int = 200) -> np.ndarray:
+        """The run's own joint positions at its samples strictly between frames k-1 and k (none for
+        k = 0), at most ``most`` of them (evenly thinned); shape (m, n), rad or m.
+
+        A path traced through these stays true to the run at any frame rate.
+        """
+        if k == 0:
+            return np.zeros((0, self.q.shape[1]))
+        t = self.run.t
+        lo = int(np.searchsorted(t, self.times[k - 1], side="right"))
+        hi = int(np.searchsorted(t, self.times[k], side="left"))
+        step = max(1, -(-(hi - lo) // most))
+        return np.asarray(self.run.q, dtype=float)[lo:hi:step]
+
 
 def sample(run: Run, times: np.ndarray) -> Motion:
     """``run`` at ``times`` (shape (F,), s)."""
