@@ -28,7 +28,8 @@ def add(sub: argparse._SubParsersAction) -> None:
     render.add_argument("--camera", default="auto",
                         help="auto (frames the whole motion; default), track (follows the arm) "
                              "or overview (fixed)")
-    render.add_argument("--cols", type=int, help="tiles per row with --grid (default: largest tiles)")
+    render.add_argument("--cols", type=int,
+                        help="tiles per row with --grid (default: the arms shown largest)")
     render.add_argument("--plot", metavar="SIGNAL[:COLUMN]",
                         help="a strip of one signal under the animation, e.g. q:q2, dP:q1, ee_pos:z")
     render.add_argument("--shadows", action="store_true", help="draw shadows (about 2x slower)")
@@ -56,8 +57,7 @@ def _cmd_render(args: argparse.Namespace) -> int:
     runs = [Run.load(path) for path in args.runs]
     options = {"width": args.width, "height": args.height, "fps": args.fps,
                "camera": args.camera, "shadows": args.shadows, "antialias": args.antialias,
-               "trace": args.trace,
-               "text": args.text, "plot": args.plot}
+               "trace": args.trace, "text": args.text, "plot": args.plot}
     if kind == "grid":
         frames = viz.iter_grid(runs, cols=args.cols, **options)
     elif kind == "overlay":

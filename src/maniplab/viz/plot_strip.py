@@ -138,8 +138,9 @@ class PlotStrip:
         draw.text((self.left, 0), title, font=face, fill=text)
         for value, y in ((high, y0), (low, y1)):
             label = f"{value:.3g}"
-            draw.text((self.left - 4 - small.getlength(label), y - size // 2), label, font=small,
-                      fill=text)
+            bottom = small.getbbox(label)[3]  # the label stays inside the strip
+            top = min(max(round(y - size / 2), 0), self.height - bottom - 1)
+            draw.text((self.left - 4 - small.getlength(label), top), label, font=small, fill=text)
         line = max(1, round(self.height / 70))
         for curve in curves:
             colour = tuple(round(weight * c + (1 - weight) * b)
