@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -120,6 +121,58 @@ def test_actuator_can_be_replaced_whole(planar2):
     spec = planar2.with_overrides({"joints.q1.actuator": hydraulic, "joints.q1.actuator.leakage": 1e-11})
     assert spec.joint("q1").actuator.leakage == 1e-11
     assert spec.joint("q1").actuator.area == 1e-3
+
+
+# --- plugin actuators ----------------------------------------------------------------------------
+
+MOTOR = {"type": "plugins.dcmotor:GearedDCMotor", "resistance": 1.0, "inductance": 5e-3,
+         "torque_constant": 0.05, "gear_ratio": 20.0}  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def motor_arm(planar2) -> ml.ManipulatorSpec:
+    return planar2.with_overrides({"joints.q1.actuator": MOTOR})
+
+
+def test_a_plugin_parameter_can_be_overridden(motor_arm):
+    spec = motor_arm.with_overrides({"joints.q1.actuator.gear_ratio": 50,
+                                     "joints.0.actuator.efficiency": 0.8})
+    params = spec.joint("q1").actuator.params
+    assert (params.gear_ratio, params.efficiency) == (50.0, 0.8)
+    assert (params.resistance, params.torque_constant) == (1.0, 0.05)  # the rest is kept
+    assert motor_arm.joint("q1").actuator.params.gear_ratio == 20.0
+    assert spec.with_overrides({"joints.q1.actuator.gear_ratio": 20.0,
+                                "joints.q1.actuator.efficiency": 1.0}) == motor_arm
+
+
+def test_an_overridden_plugin_parameter_is_simulated(motor_arm):
+    """The plant's motor has the overridden gear ratio: joint torque N K i."""
+    run = ml.simulate(motor_arm, inputs={"q1": 12.0}, duration=0.02,
+                      overrides={"joints.q1.actuator.gear_ratio": 40.0})
+    assert run.meta["overrides"] == {"joints.q1.actuator.gear_ratio": 40.0}
+    assert run["current"][-1, 0] > 1.0
+    np.testing.assert_allclose(run["tau_act"][:, 0], 40.0 * 0.05 * run["current"][:, 0],
+                               rtol=1e-12)
+
+
+@pytest.mark.parametrize(
+    "path, value, field, words",
+    [
+        ("joints.q1.actuator.gear", 50, "actuator.gear",
+         ["unknown key 'gear'", "valid keys: type, resistance, inductance", "gear_ratio"]),
+        ("joints.q1.actuator.gear_ration", 50, "actuator.gear_ration",
+         ["did you mean 'gear_ratio'"]),
+        ("joints.q1.actuator.leakage", 1e-11, "actuator.leakage",
+         ["unknown key 'leakage'", "hydraulic actuator", "override the whole actuator"]),
+        ("joints.q1.actuator.gear_ratio", -2.0, "actuator.gear_ratio",
+         ["> 0", "after override joints.q1.actuator.gear_ratio=-2.0"]),
+    ],
+)
+def test_bad_plugin_overrides_name_joint_and_field(motor_arm, path, value, field, words):
+    error = override_error(motor_arm, {path: value})
+    assert (error.joint, error.field) == ("q1", field)
+    for word in words:
+        assert word in error.problem, f"{word!r} not in {error.problem!r}"
 
 
 # --- bad overrides ------------------------------------------------------------------------------

@@ -3,8 +3,9 @@
 Overrides are applied to the spec's plain dict and the result is validated again, so every rule
 of a spec file also holds for an override. A path is checked against the spec's fields (not the
 values present), so a field left at its default, or a section that is absent (a joint without a
-body), can be set too. A body's COG and inertia that were left at their defaults follow the
-length, direction and mass they derive from.
+body), can be set too; an actuator's fields are those of its type, a plugin's the fields of its
+``Params`` (``{"joints.q1.actuator.gear_ratio": 50}`` on a geared motor plugin). A body's COG and
+inertia that were left at their defaults follow the length, direction and mass they derive from.
 """
 
 from __future__ import annotations
@@ -130,11 +131,28 @@ def _set(data: dict[str, Any], spec: ManipulatorSpec, path: Any, value: Any) -> 
 def _valid_keys(cls: type, node: dict[str, Any]) -> list[str]:
     if cls is Joint or cls is ManipulatorSpec or cls in _SECTIONS.values():
         return _fields(cls)
-    # an actuator: its fields depend on its type (all types' fields if that is unknown)
-    actuator = _ACTUATORS.get(node.get("type"))  # type: ignore[arg-type]
+    # an actuator: its fields depend on its type (all built-in types' fields if that is unknown)
+    kind = node.get("type")
+    actuator = _ACTUATORS.get(kind)  # type: ignore[arg-type]
     if actuator is not None:
         return _fields(actuator)
+    params = _plugin_params(kind)
+    if params is not None:
+        return ["type", *(f.name for f in dataclasses.fields(params))]
     return list(dict.fromkeys(f for a in _ACTUATORS.values() for f in _fields(a)))
+
+
+def _plugin_params(kind: Any) -> type | None:
+    """The ``Params`` dataclass of the actuator plugin a spec's ``type`` names, if it names one
+    (an unknown type is left to the spec's validation, which reports it)."""
+    if not isinstance(kind, str):
+        return None
+    from maniplab.actuators.plugin import PluginLookupError, resolve
+
+    try:
+        return resolve(kind).Params
+    except PluginLookupError:
+        return None
 
 
 def _child(cls: type, part: str, node: dict[str, Any]) -> type | None:
