@@ -447,12 +447,47 @@ def test_actuators_are_named_after_joints_and_ready_for_the_plant() -> None:
         assert model.actuator_ctrllimited[act.id] and list(act.ctrlrange) == [-limit, limit]
         assert model.actuator_actnum[act.id] == 2  # ΔP and Q
         assert model.jnt_range[model.joint(joint["name"]).id].tolist() == joint["limits"]
-    # without user callbacks the hydraulics are inert and the arm just falls
-    mjdata = mujoco.MjData(model)
-    mjdata.ctrl[:] = 0.5
-    for _ in range(10):
-        mujoco.mj_step(model, mjdata)
-    assert np.all(mjdata.qfrc_actuator == 0.0) and np.all(np.isfinite(mjdata.qpos))
+
+    # without maniplab's callbacks the hydraulics are inert and the arm just falls, in the model
+    # and in its MJCF as plain MuJoCo loads it: no force whatever ΔP and Q hold, and they stay
+    for mj_model in (model, mujoco.MjModel.from_xml_string(to_mjcf("erector"))):
+        mjdata = mujoco.MjData(mj_model)
+        mjdata.ctrl[:] = 0.5
+        mjdata.act[:] = np.tile([8e6, 2e-3], 6)  # ΔP (Pa) and Q (m³/s) of each cylinder
+        for _ in range(10):
+            mujoco.mj_step(mj_model, mjdata)
+            assert np.all(mjdata.actuator_force == 0.0) and np.all(mjdata.qfrc_actuator == 0.0)
+        assert np.all(mjdata.act == np.tile([8e6, 2e-3], 6)) and np.all(np.isfinite(mjdata.qpos))
+        free_fall = mujoco.MjData(mj_model)  # the same motion as without actuators
+        for _ in range(10):
+            mujoco.mj_step(mj_model, free_fall)
+        np.testing.assert_array_equal(mjdata.qpos, free_fall.qpos)
+
+
+def _foreign_dyn(m, d, i):  # noqa: ANN001, ANN202 - MuJoCo's callback signature
+    return 0.0
+
+
+def _foreign_bias(m, d, i):  # noqa: ANN001, ANN202
+    return 0.0
+
+
+def test_models_compile_while_python_callbacks_are_installed() -> None:
+    """MuJoCo calls the actuator callbacks while compiling, before Python ones can be handed the
+    model; building suspends whatever is installed and gives it back."""
+    mujoco.set_mjcb_act_dyn(_foreign_dyn)
+    mujoco.set_mjcb_act_bias(_foreign_bias)
+    try:
+        with pytest.raises(ValueError):  # what happens without the suspension
+            build_mjspec("erector").compile()
+        assert build_model("erector").nu == 6
+        assert "<actuator>" in to_mjcf("erector")
+        assert maniplab.Plant("erector").model.nu == 12  # six cylinders and their flow ramps
+        assert mujoco.get_mjcb_act_dyn() is _foreign_dyn
+        assert mujoco.get_mjcb_act_bias() is _foreign_bias
+    finally:
+        mujoco.set_mjcb_act_dyn(None)
+        mujoco.set_mjcb_act_bias(None)
 
 
 def test_torque_actuator_applies_the_command() -> None:

@@ -11,7 +11,9 @@
 - the end-effector is a fixed body ``end_effector`` (no joint) on the last link at
   ``length_n * direction_n + offset`` holding the payload as a point mass;
 - one actuator per joint named after it: a force/torque source (gain 1, ``ctrlrange`` ±limit) for
-  ``torque`` joints and a ``user`` actuator with two activation states (ΔP, Q) for hydraulic ones.
+  ``torque`` joints; for hydraulic ones an actuator with ``user`` dynamics and two activation
+  states (ΔP, Q) but zero gain and no bias, which is inert in a plain MuJoCo tool (no force, the
+  states kept as they are): the plant (:mod:`maniplab.sim`) gives it its force law at run time.
 
 Compiler choices, all written to the MJCF:
 
@@ -34,6 +36,7 @@ import mujoco
 import numpy as np
 
 from maniplab.builtin import resolve_spec
+from maniplab.mjcb import suspended
 from maniplab.mjcf_gen import checks, names, visuals
 from maniplab.spec import (
     Body,
@@ -109,7 +112,21 @@ def build_model(spec: SpecLike) -> mujoco.MjModel:
             move the arm the same way (the message names the file and the joints).
     """
     spec = resolve_spec(spec)
-    model = checks.compile_checked(build_mjspec(spec), spec)
+    return compile_model(build_mjspec(spec), spec)
+
+
+def compile_model(s: mujoco.MjSpec, spec: ManipulatorSpec) -> mujoco.MjModel:
+    """Compile ``s``, the MjSpec of ``spec`` (possibly changed, as the plant's is), and check it.
+
+    MuJoCo calls the process-global actuator callbacks while compiling, when Python ones cannot be
+    handed the model yet; so any installed ones (a plant stepping in this thread, a user's) are
+    suspended meanwhile (:func:`maniplab.mjcb.suspended`) and restored afterwards.
+
+    Raises:
+        ModelError: as :func:`build_model`.
+    """
+    with suspended():
+        model = checks.compile_checked(s, spec)
     checks.check_drives_mass(model, spec)
     return model
 
@@ -177,18 +194,23 @@ def _add_end_effector(parent: mujoco.MjsBody, ee: EndEffector, at: np.ndarray) -
 
 
 def _add_actuator(s: mujoco.MjSpec, joint: Joint) -> None:
-    """Actuator named after ``joint``; a hydraulic one's dynamics, gain and bias are user callbacks.
+    """Actuator named after ``joint``; a hydraulic one holds ΔP and Q and applies no force.
 
-    Without callbacks MuJoCo treats user terms as zero, so the model still loads and runs in any
-    MuJoCo tool; the plant (``maniplab.sim``) installs the hydraulics of eq. (4).
+    A hydraulic actuator gets ``user`` dynamics with its two states, a fixed zero gain and no
+    bias. In a MuJoCo tool without maniplab's callbacks it is inert: MuJoCo's user dynamics leave
+    the states as they are without an ``mjcb_act_dyn``, and the force, gain × (the last state) +
+    bias, is zero. (A ``user`` gain would not be: without an ``mjcb_act_gain`` MuJoCo takes it as
+    1, and the actuator would push with its valve flow Q in m³/s as a force.) The plant
+    (:mod:`maniplab.sim.plant_model`) gives it the force law of eq. (4) at run time.
     """
     act = s.add_actuator(name=joint.name, target=joint.name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
     spec = joint.actuator
     limit: float | None
     if isinstance(spec, HydraulicActuator):
         act.dyntype = mujoco.mjtDyn.mjDYN_USER
-        act.gaintype = mujoco.mjtGain.mjGAIN_USER
-        act.biastype = mujoco.mjtBias.mjBIAS_USER
+        act.gaintype = mujoco.mjtGain.mjGAIN_FIXED
+        act.gainprm = [0.0] * 10
+        act.biastype = mujoco.mjtBias.mjBIAS_NONE
         act.actdim = HYDRAULIC_STATES
         act.actlimited = mujoco.mjtLimited.mjLIMITED_FALSE
         limit = spec.current_limit

@@ -2,12 +2,12 @@
 
 MuJoCo's ``mjcb_act_dyn`` and ``mjcb_act_bias`` are process-global. A plant whose actuators run on
 the callback route (plugins, or every actuator with ``Plant(..., route="callbacks")``) installs its
-own pair inside :func:`installed`, which:
-
-- holds a process-wide re-entrant lock, so plants in different threads never see each other's
-  callbacks (they take turns) while a plant may still step another one from inside its own
-  controller (the inner scope installs the inner plant's pair and gives the outer one back);
-- restores whatever was installed before, also when the step raises.
+own pair, :class:`PluginCallbacks`, inside :func:`installed`; a plant without any keeps everyone
+else's away from its user actuators inside :func:`suspended`, and models are compiled inside it
+too. Both scopes (:mod:`maniplab.mjcb`, re-exported here) hold one process-wide re-entrant lock,
+so plants in different threads take turns, while a plant may still step another one from inside
+its own controller (the inner scope installs the inner plant's pair and gives the outer one
+back); they restore whatever was installed before, also when the step raises.
 
 The callbacks answer only for their own plant's model and data; for any other model they behave
 as if no callback were installed (zero activation derivatives, zero user bias), so states of two
@@ -16,51 +16,17 @@ plants never mix. A plant on the native route uses no callbacks at all.
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
-import threading
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 
 import mujoco
 import numpy as np
 
 from maniplab.actuators.plugin import ActuatorPlugin
+from maniplab.mjcb import installed, suspended
 from maniplab.sim.errors import PluginError
 
-_LOCK = threading.RLock()
-
-
-@contextlib.contextmanager
-def installed(callbacks: PluginCallbacks) -> Iterator[None]:
-    """Install ``callbacks`` as MuJoCo's act_dyn/act_bias for the block, then restore the
-    previous ones."""
-    with _LOCK:
-        previous = (mujoco.get_mjcb_act_dyn(), mujoco.get_mjcb_act_bias())
-        mujoco.set_mjcb_act_dyn(callbacks.act_dyn)
-        mujoco.set_mjcb_act_bias(callbacks.act_bias)
-        try:
-            yield
-        finally:
-            mujoco.set_mjcb_act_dyn(previous[0])
-            mujoco.set_mjcb_act_bias(previous[1])
-
-
-@contextlib.contextmanager
-def suspended() -> Iterator[None]:
-    """No actuator callbacks for the block (restored after it).
-
-    MuJoCo calls the callbacks while compiling a model (to compute its constants), when the
-    Python bindings cannot hand them the model yet; so models are compiled without any.
-    """
-    with _LOCK:
-        previous = (mujoco.get_mjcb_act_dyn(), mujoco.get_mjcb_act_bias())
-        mujoco.set_mjcb_act_dyn(None)
-        mujoco.set_mjcb_act_bias(None)
-        try:
-            yield
-        finally:
-            mujoco.set_mjcb_act_dyn(previous[0])
-            mujoco.set_mjcb_act_bias(previous[1])
+__all__ = ["PluginCallbacks", "installed", "suspended"]
 
 
 @dataclasses.dataclass(frozen=True)
