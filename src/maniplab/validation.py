@@ -71,5 +71,4 @@ def run_case(spec: ManipulatorSpec, trajectory: Any, q_seed: np.ndarray, *, labe
     duration = trajectory.t0 + trajectory.duration + settle
     run = simulate(spec, controller=controller, duration=duration,
                       initial={"q": q0, "dP": "gravity"}, label=label)
-    run = controller.annotate(run)
     return run, tracking_metrics(run, trajectory, label=label, model=model)

@@ -56,7 +56,6 @@ def _cmd_control(args: argparse.Namespace) -> int:
     label = f"{args.mode}, {task} task"
     run = ml.simulate(spec, controller=controller, duration=move.t0 + move.duration + args.settle,
                       initial={"q": q0, "dP": "gravity"}, label=label)
-    run = controller.annotate(run)
     metrics = tracking_metrics(run, move, label=label, model=model)
     table = json.dumps(metrics.to_dict(), indent=2)
     args.output.mkdir(parents=True, exist_ok=True)

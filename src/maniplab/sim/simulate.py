@@ -124,7 +124,10 @@ def simulate(spec_or_plant: SpecLike | Plant, *, inputs: Mapping[str | int, Any]
     bar.close()
     recorder.forces()
     meta = _meta(plant, inputs or {}, controller, period, overrides, initial, steps, every, label)
-    return Run(t=recorder.times(), signals=recorder.signals(), spec=plant.spec, meta=meta)
+    run = Run(t=recorder.times(), signals=recorder.signals(), spec=plant.spec, meta=meta)
+    # a controller that logs its own signals adds them (any controller with annotate(run) -> Run)
+    annotate = getattr(controller, "annotate", None)
+    return annotate(run) if callable(annotate) else run
 
 
 def _plant(spec_or_plant: SpecLike | Plant, *, dt: float | None, overrides: Any,
