@@ -53,8 +53,8 @@ def compare(runs: Sequence[Run], signals: Sequence[str] = ("q",),
         runs: the runs (at least one).
         signals: signal names (``q``, ``qd``, ``dP``, ``iv``, ``tau_fric``, ``mode``, ...) and
             ``ee_path`` for the end-effector path; one row of subplots each.
-        joints: joint names for the columns of per-joint signals (default: every joint where some
-            run has a finite value of the first per-joint signal).
+        joints: joint names for the columns of per-joint signals (default: every joint where the
+            first per-joint signal is finite and changes in some run).
         labels: legend entries (default: the parameters that differ between the runs).
         title: figure title (default: the arm's name).
 
@@ -93,10 +93,13 @@ def _active_joints(runs: Sequence[Run], signals: Sequence[str]) -> list[str]:
     for run in runs:
         if signals[0] not in run:
             raise PlotError(f"run {run.label!r} has no signal {signals[0]!r}; it has {', '.join(run)}")
-    finite = np.zeros(spec.n, dtype=bool)
+    active = np.zeros(spec.n, dtype=bool)
     for run in runs:
-        finite |= np.isfinite(np.asarray(run[signals[0]], dtype=float)).any(axis=0)
-    return [name for name, keep in zip(spec.joint_names, finite) if keep] or list(spec.joint_names)
+        values = np.asarray(run[signals[0]], dtype=float)
+        finite = np.isfinite(values).any(axis=0)
+        varies = np.nanmax(values, axis=0, initial=-np.inf) > np.nanmin(values, axis=0, initial=np.inf)
+        active |= finite & varies
+    return [name for name, keep in zip(spec.joint_names, active) if keep] or list(spec.joint_names)
 
 
 def _plot_joint(ax, runs: Sequence[Run], labels: Sequence[str], signal: str, j: int) -> None:
