@@ -25,7 +25,7 @@ from maniplab.viz.frames import FrameStream, collect
 from maniplab.viz.gl import RenderError
 from maniplab.viz.look import Look
 from maniplab.viz.plot_strip import PlotStrip, select
-from maniplab.viz.render import check_size, state_key, strip_height
+from maniplab.viz.render import SceneComposition, check_size, state_key, strip_height
 from maniplab.viz.scene import SceneView
 from maniplab.viz.timeline import Motion, frame_times, run_span, sample
 
@@ -224,7 +224,7 @@ def iter_grid(runs: Sequence[Run], *, width: int = 1280, height: int = 720, fps:
 # --- overlay ------------------------------------------------------------------------------------
 
 
-class Overlay:
+class Overlay(SceneComposition):
     """The composition of an overlay video (see :func:`render_overlay` for the arguments)."""
 
     def __init__(self, runs: Sequence[Run], width: int, height: int, fps: float,
@@ -250,23 +250,6 @@ class Overlay:
         self.strip = _strip(runs, look.plot, width, strip, t0, t1)
         look = dataclasses.replace(look, camera=_shared_camera(look.camera, motions))
         self.view = SceneView(motions, width, self.view_height, look)
-
-    def compose(self, k: int, out: np.ndarray) -> None:
-        """Draw frame ``k`` into ``out`` (uint8, shape (height, width, 3))."""
-        view = out[:self.view_height]
-        view[:] = self.view.frame(k)
-        margin = self.font // 2
-        if self.text:
-            text.blend(view, self.runs_key, -margin, margin)
-            text.blend(view, text.stamp(self.times[k], self.font), margin, margin)
-        if self.key is not None:
-            text.blend(view, self.key, margin, -margin)
-        if self.strip is not None:
-            self.strip.draw(out[self.view_height:], self.times[k])
-
-    def close(self) -> None:
-        """Free the OpenGL context."""
-        self.view.close()
 
 
 def render_overlay(runs: Sequence[Run], *, width: int = 1280, height: int = 720,

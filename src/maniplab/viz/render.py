@@ -88,7 +88,32 @@ def state_key(modes: np.ndarray, size: int) -> np.ndarray | None:
                           axis=1)
 
 
-class SingleRun:
+class SceneComposition:
+    """Drawing shared by one-scene videos: the scene, the time stamp, the joint-state key, an
+    optional key of the runs (top right) and the plot strip. Subclasses set the attributes."""
+
+    runs_key: np.ndarray | None = None
+
+    def compose(self, k: int, out: np.ndarray) -> None:
+        """Draw frame ``k`` into ``out`` (uint8, shape (height, width, 3))."""
+        view = out[:self.view_height]
+        view[:] = self.view.frame(k)
+        margin = self.font // 2
+        if self.text:
+            if self.runs_key is not None:
+                text.blend(view, self.runs_key, -margin, margin)
+            text.blend(view, text.stamp(self.times[k], self.font), margin, margin)
+        if self.key is not None:
+            text.blend(view, self.key, margin, -margin)
+        if self.strip is not None:
+            self.strip.draw(out[self.view_height:], self.times[k])
+
+    def close(self) -> None:
+        """Free the OpenGL context."""
+        self.view.close()
+
+
+class SingleRun(SceneComposition):
     """The composition of one run's video (see :func:`render` for the arguments)."""
 
     def __init__(self, run: Run, width: int, height: int, fps: float, look: Look) -> None:
@@ -106,19 +131,3 @@ class SingleRun:
         self.text = look.text
         self.key = state_key(motion.modes, self.font) if look.text else None
         self.view = SceneView([motion], width, self.view_height, look)
-
-    def compose(self, k: int, out: np.ndarray) -> None:
-        """Draw frame ``k`` into ``out`` (uint8, shape (height, width, 3))."""
-        view = out[:self.view_height]
-        view[:] = self.view.frame(k)
-        margin = self.font // 2
-        if self.text:
-            text.blend(view, text.stamp(self.times[k], self.font), margin, margin)
-        if self.key is not None:
-            text.blend(view, self.key, margin, -margin)
-        if self.strip is not None:
-            self.strip.draw(out[self.view_height:], self.times[k])
-
-    def close(self) -> None:
-        """Free the OpenGL context."""
-        self.view.close()
