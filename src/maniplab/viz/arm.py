@@ -6,6 +6,7 @@ import mujoco
 import numpy as np
 
 from maniplab.mjcf_gen import build_mjspec, names
+from maniplab.mjcf_gen.builder import compile_model
 from maniplab.spec import ManipulatorSpec
 from maniplab.viz import palette
 from maniplab.viz.gl import RenderError
@@ -32,7 +33,7 @@ class ArmView:
         self.spec = spec
         mjspec = build_mjspec(spec)
         mjspec.worldbody.add_camera(name=AUTO_CAMERA, mode=mujoco.mjtCamLight.mjCAMLIGHT_FIXED)
-        self.model = mjspec.compile()
+        self.model = compile_model(mjspec, spec)  # callbacks suspended while compiling
         self.data = mujoco.MjData(self.model)
         self.end_effector = self.model.site(names.END_EFFECTOR).id
         self._link_of = np.full(self.model.ngeom, _NO_OBJECT)
