@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import sys
 from typing import NoReturn
 
 EXIT_BAD_INPUT = 2
@@ -21,8 +20,3 @@ def spec_argument(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("spec", metavar="SPEC",
                         help="a spec file (YAML) or the name of a built-in spec "
                              "(see 'maniplab info --list')")
-
-
-def is_terminal() -> bool:
-    """True when progress bars should be drawn (stderr is a terminal)."""
-    return sys.stderr.isatty()

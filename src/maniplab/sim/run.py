@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import dataclasses
-import json
 import os
 from collections.abc import Iterator, Mapping
 from pathlib import Path
@@ -91,7 +90,3 @@ class Run:
         from maniplab.sim import store
 
         return store.load(Path(path))
-
-    def to_json_meta(self) -> str:
-        """The spec and meta as one JSON document (what the file stores beside the arrays)."""
-        return json.dumps({"spec": self.spec.to_dict(), "meta": dict(self.meta)}, sort_keys=True)
