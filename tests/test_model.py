@@ -92,10 +92,11 @@ class MjRef:
         return np.vstack([jacp, jacr])
 
 
-def assert_close(actual: np.ndarray, reference: np.ndarray, what: str = "") -> None:
-    """‖actual - reference‖ <= 1e-9 ‖reference‖ + 1e-10 (Frobenius norms)."""
+def assert_close(actual: np.ndarray, reference: np.ndarray, what: str = "",
+                 rel: float = REL) -> None:
+    """‖actual - reference‖ <= rel ‖reference‖ + 1e-10 (Frobenius norms; rel 1e-9 by default)."""
     err = np.linalg.norm(np.asarray(actual) - reference)
-    bound = REL * np.linalg.norm(reference) + ABS
+    bound = rel * np.linalg.norm(reference) + ABS
     assert err <= bound, f"{what}: error {err:.3e} > {bound:.3e}\nactual\n{actual}\nreference\n{reference}"
 
 
@@ -378,8 +379,13 @@ def test_random_arms_match_mujoco(spec: ml.ManipulatorSpec, seed: int) -> None:
     tau = np.random.default_rng(seed).normal(scale=10.0, size=spec.n)
     qdd, hold = am.constrained_dynamics(q, qd, tau, stuck)
     qdd_ref, hold_ref = _kkt_reference(ref, q, qd, tau, stuck)
-    assert_close(qdd, qdd_ref, "constrained qdd")
-    assert_close(hold, hold_ref, "hold")
+    # A linear solve amplifies the inputs' difference by the condition number of the free block
+    # (perturbation bound |dx|/|x| <= cond(A) (|dA|/|A| + |db|/|b|)); the inputs agree to 1e-9.
+    free = [i for i in range(spec.n) if i not in stuck]
+    amplification = np.linalg.cond(M[np.ix_(free, free)]) if free else 1.0
+    rel = REL * max(1.0, amplification / 1e3)
+    assert_close(qdd, qdd_ref, "constrained qdd", rel=rel)
+    assert_close(hold, hold_ref, "hold", rel=rel)
 
 
 @settings(max_examples=4, deadline=None, suppress_health_check=[HealthCheck.too_slow,
