@@ -6,13 +6,13 @@ from collections.abc import Iterable, Sequence
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from maniplab.model.build import load_kernels
 from maniplab.model.engine import get_engine
+from maniplab.model.errors import ModelArgumentError
 from maniplab.model.parameters import arm_terms
 from maniplab.spec import ManipulatorSpec
-
-ArrayLike = Any
 
 
 class AnalyticModel:
@@ -150,7 +150,7 @@ class AnalyticModel:
         arr = np.asarray(stuck)
         if arr.dtype == bool:
             if arr.shape != (self.n,):
-                raise ValueError(f"stuck mask must have shape ({self.n},), got {arr.shape}")
+                raise ModelArgumentError(f"stuck mask must have shape ({self.n},), got {arr.shape}")
             return arr.copy()
         mask = np.zeros(self.n, dtype=bool)
         for key in stuck:

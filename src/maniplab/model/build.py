@@ -38,7 +38,9 @@ from maniplab.model.codegen import (
 from maniplab.model.compiler import compile_shared, find_compiler
 from maniplab.model.dynamics import derive
 from maniplab.model.engine import Engine, get_engine
+from maniplab.model.errors import ModelArgumentError
 from maniplab.model.parameters import ArmTerms, arm_terms, structure_key
+from maniplab.model.version import package_version
 from maniplab.progress import Progress
 from maniplab.spec import ManipulatorSpec
 
@@ -64,9 +66,10 @@ class Generated:
     engine: Engine
 
 
-def symbols(engine: Engine, n: int) -> tuple[list, list, list]:
+def symbols(engine: Engine, n: int) -> tuple[list[Any], list[Any], list[Any]]:
     """Joint position, velocity and acceleration symbols q0.., qd0.., qdd0.. (0-based)."""
-    return tuple([engine.symbol(f"{v}{i}") for i in range(n)] for v in ("q", "qd", "qdd"))
+    q, qd, qdd = ([engine.symbol(f"{v}{i}") for i in range(n)] for v in ("q", "qd", "qdd"))
+    return q, qd, qdd
 
 
 def generate(spec: ManipulatorSpec, progress: Progress | None = None,
@@ -108,10 +111,8 @@ def python_kernels_source(gen: Generated, header: str = "") -> str:
 
 def cache_inputs(spec: ManipulatorSpec, backend: str) -> dict[str, Any]:
     """Everything the generated code depends on (hashed into the cache key)."""
-    from maniplab import __version__
-
     inputs: dict[str, Any] = {
-        "structure": structure_key(spec), "n": spec.n, "maniplab": __version__,
+        "structure": structure_key(spec), "n": spec.n, "maniplab": package_version(),
         "generator": GENERATOR_VERSION, "backend": backend,
         "engine": _engine_ident(),
     }
@@ -129,16 +130,21 @@ def _engine_ident() -> str:
 
 
 def resolve_backend(backend: str) -> str:
-    """"c" or "python" for a requested backend; raises ValueError when C is asked but impossible."""
+    """"c" or "python" for a requested backend.
+
+    Raises:
+        ModelArgumentError: for an unknown backend, or "c" where it cannot be built.
+    """
     if backend not in BACKENDS:
-        raise ValueError(f"unknown backend {backend!r}; expected one of {', '.join(BACKENDS)}")
+        raise ModelArgumentError(
+            f"unknown backend {backend!r}; expected one of {', '.join(BACKENDS)}")
     compiler = find_compiler()
     usable = compiler is not None and compiler.can_build_extension
     if backend == "auto":
         return "c" if usable else "python"
     if backend == "c" and not usable:
-        raise ValueError("backend 'c' needs a C compiler and Python's and numpy's headers; "
-                         "none found (use backend='python' or 'auto')")
+        raise ModelArgumentError("backend 'c' needs a C compiler and Python's and numpy's headers; "
+                                 "none found (use backend='python' or 'auto')")
     return backend
 
 
@@ -176,7 +182,9 @@ def _build_entry(spec: ManipulatorSpec, backend: str, key: str, inputs: dict[str
             module = _module_name(key)
             source = stage / f"{module}.c"
             source.write_text(c_kernels_source(gen, header) + extension_source(gen.kernels, module))
-            compile_shared(find_compiler(), source, stage / f"{module}.so", extension=True)
+            compiler = find_compiler()
+            assert compiler is not None, "resolve_backend chooses 'c' only with a compiler"
+            compile_shared(compiler, source, stage / f"{module}.so", extension=True)
             bar.step("compiled")
         else:
             (stage / "kernels.py").write_text(python_kernels_source(gen, f"# {header[3:-3]}"))
@@ -198,10 +206,13 @@ def _load_entry(folder: Path, backend: str, key: str, n: int) -> Any:
         name = _module_name(key)
         path = folder / f"{name}.so"
         loader = importlib.machinery.ExtensionFileLoader(name, str(path))
-        module = importlib.util.module_from_spec(
-            importlib.util.spec_from_file_location(name, str(path), loader=loader))
+        module_spec = importlib.util.spec_from_file_location(name, str(path), loader=loader)
+        if module_spec is None:
+            raise ImportError(f"cannot load the compiled model {path}", path=str(path))
+        module = importlib.util.module_from_spec(module_spec)
         loader.exec_module(module)
-        module.backend, module.key, module.folder = "c", key, folder
+        # the same identity attributes as PythonKernels
+        vars(module).update(backend="c", key=key, folder=folder)
         return module
     return PythonKernels(n, (folder / "kernels.py").read_text(), key, folder)
 
@@ -221,8 +232,9 @@ class PythonKernels:
         code = compile(source, str(folder / "kernels.py") if folder else "<kernels>", "exec")
         self._scalar: dict[str, Any] = {"sin": math.sin, "cos": math.cos, "sqrt": math.sqrt}
         self._vector: dict[str, Any] = {"sin": np.sin, "cos": np.cos, "sqrt": np.sqrt}
-        exec(code, self._scalar)
-        exec(code, self._vector)
+        # the code is the kernels this module generated (cached with a checksum), not user input
+        exec(code, self._scalar)  # noqa: S102
+        exec(code, self._vector)  # noqa: S102
         for name, (nin, shapes) in self._scalar["KERNELS"].items():
             setattr(self, name, self._wrap(name, nin, shapes))
 

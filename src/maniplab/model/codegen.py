@@ -162,8 +162,8 @@ def python_function(ck: CseKernel, printer: Callable[[Expr], str]) -> str:
     """Python definition ``def <name>(p, q, qd, qdd)`` returning a tuple of the outputs."""
     k = ck.kernel
     lines = [f"def {k.name}(p, q, qd, qdd):",
-             f"    \"\"\"{k.doc}: tuple of {sum(_size(s) for s in k.outputs)} floats "
-             f"(shapes {k.outputs}, C order).\"\"\""]
+             (f"    \"\"\"{k.doc}: tuple of {sum(_size(s) for s in k.outputs)} floats "
+              f"(shapes {k.outputs}, C order).\"\"\"")]
     lines += [f"    {s} = {arr}[{i}]" for s, arr, i in _input_symbols(ck)]
     lines += [f"    {t} = {printer(e)}" for t, e in ck.temps]
     outputs = ", ".join(printer(e) for e in ck.outputs)

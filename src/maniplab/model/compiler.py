@@ -42,7 +42,7 @@ class Compiler:
         return f"{' '.join(self.command)} | {self.version} | ext={self.can_build_extension}"
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def find_compiler() -> Compiler | None:
     """The C compiler to use ($CC, Python's configured CC, cc, gcc or clang), or None.
 
@@ -59,7 +59,8 @@ def find_compiler() -> Compiler | None:
         if not command or shutil.which(command[0]) is None:
             continue
         try:
-            proc = subprocess.run([*command, "--version"], capture_output=True, text=True, timeout=30)
+            proc = subprocess.run([*command, "--version"], capture_output=True, text=True,
+                                  timeout=30, check=False)
         except (OSError, subprocess.SubprocessError):
             continue
         if proc.returncode == 0:
@@ -101,6 +102,6 @@ def compile_shared(compiler: Compiler, source: Path, output: Path, *, extension:
     if extension:
         argv += ["-DML_PYTHON", f"-I{compiler.python_include}", f"-I{compiler.numpy_include}"]
     argv.append("-lm")
-    proc = subprocess.run(argv, capture_output=True, text=True)
+    proc = subprocess.run(argv, capture_output=True, text=True, check=False)
     if proc.returncode != 0:
         raise CompileError(f"C compilation failed ({shlex.join(argv)}):\n{proc.stderr[-4000:]}")

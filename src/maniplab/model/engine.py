@@ -10,7 +10,10 @@ from __future__ import annotations
 import dataclasses
 import importlib
 import math
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
+
+from maniplab.model.errors import ModelArgumentError
 
 Expr = Any  # a sympy or symengine expression
 Vec = list  # three expressions
@@ -60,7 +63,7 @@ def get_engine(name: str = "auto") -> Engine:
     """The engine called ``name`` ("sympy", "symengine", or "auto": symengine when installed).
 
     Raises:
-        ValueError: for an unknown name.
+        ModelArgumentError: for an unknown name.
         ImportError: when symengine is asked for but not installed.
     """
     if name == "auto":
@@ -69,7 +72,8 @@ def get_engine(name: str = "auto") -> Engine:
         except ImportError:
             name = "sympy"
     if name not in ("sympy", "symengine"):
-        raise ValueError(f"unknown symbolic engine {name!r}; expected sympy, symengine or auto")
+        raise ModelArgumentError(
+            f"unknown symbolic engine {name!r}; expected sympy, symengine or auto")
     return Engine(name, importlib.import_module(name))
 
 

@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from maniplab.model.engine import Engine, Expr, Mat, Vec
+from maniplab.model.errors import ModelArgumentError
 from maniplab.spec import ManipulatorSpec, inertia_matrix
 
 #: Parameter groups that SymbolicModel can keep as symbols, and the symbols they introduce.
@@ -121,13 +122,13 @@ def arm_terms(
         slots: make every other non-zero value a runtime slot ``p<k>`` instead of a number.
 
     Raises:
-        ValueError: for an unknown group.
+        ModelArgumentError: for an unknown group.
     """
     symbolic = frozenset(symbolic)
     unknown = symbolic - GROUPS.keys()
     if unknown:
-        raise ValueError(f"unknown parameter group(s) {sorted(unknown)}; expected some of "
-                         f"{', '.join(GROUPS)}")
+        raise ModelArgumentError(f"unknown parameter group(s) {sorted(unknown)}; expected some "
+                                 f"of {', '.join(GROUPS)}")
     make = _Maker(engine, symbolic, slots)
     bodies = [_body_terms(spec, j, make) for j in range(spec.n)]
     ee = spec.end_effector
@@ -201,6 +202,8 @@ def structure_key(spec: ManipulatorSpec) -> str:
         body = joint.body
         row: list[Any] = [joint.type.value, joint.axis.value, nz([joint.friction.viscous])]
         if body is not None:
+            # Body.__post_init__ fills in a com and an inertia that were not given
+            assert body.com is not None and body.inertia is not None
             row += [nz([body.mass]), nz(body.length * np.asarray(body.direction)), nz(body.com),
                     nz(body.inertia)]
         rows.append(row)
