@@ -12,11 +12,10 @@ import math
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.linalg import lapack
 
 from maniplab.model import AnalyticModel
-
-ArrayLike = Any
 
 
 # --- rotations ---------------------------------------------------------------------------------

@@ -110,8 +110,10 @@ def tracking_metrics(run: Any, trajectory: Trajectory, *, label: str | None = No
         i = int(np.argmax(flat.max(axis=0)))
         peak_dP, joint = float(flat[:, i].max()) / 1e6, run.spec.joint_names[i]
     peak_iv = float(np.nanmax(np.abs(iv))) if iv is not None and np.isfinite(iv).any() else math.nan
+    if not label:
+        label = getattr(run, "label", "run")
     return TrackingMetrics(
-        label=label or getattr(run, "label", "run"),
+        label=label,
         rms_error_mm=1e3 * float(np.sqrt(np.mean(err[inside] ** 2))),
         max_error_mm=1e3 * float(err[inside].max()),
         end_of_move_error_mm=1e3 * float(err[k1]),
@@ -159,7 +161,7 @@ def format_table(rows: Sequence[TrackingMetrics], columns: Sequence[str] | None 
         body.append(values)
     widths = [max(len(h), *(len(r[i]) for r in body)) if body else len(h)
               for i, h in enumerate(header)]
-    line = lambda cells: "| " + " | ".join(c.ljust(w) for c, w in zip(cells, widths)) + " |"  # noqa: E731
+    line = lambda cells: "| " + " | ".join(c.ljust(w) for c, w in zip(cells, widths)) + " |"
     sep = "|" + "|".join("-" * (w + 2) for w in widths) + "|"
     return "\n".join([line(header), sep, *(line(r) for r in body)])
 

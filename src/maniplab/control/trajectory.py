@@ -14,10 +14,17 @@ from collections.abc import Sequence
 from typing import Any, Protocol
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from maniplab.control.kinematics import matrix_to_rpy, rotation_exp, rotation_log, rpy_to_matrix
+from maniplab.errors import ManiplabError
 
-ArrayLike = Any
+
+class TrajectoryError(ManiplabError, ValueError):
+    """A pose, move or path is malformed (wrong number of values, a duration <= 0, no segments).
+
+    It is also a ValueError, which these raised before.
+    """
 
 
 def min_jerk(tau: float) -> tuple[float, float, float]:
@@ -45,7 +52,7 @@ class Pose:
         """From [x, y, z] or [x, y, z, roll, pitch, yaw] (m, rad; R = Rz(yaw) Ry(pitch) Rx(roll))."""
         v = [float(x) for x in values]
         if len(v) not in (3, 6):
-            raise ValueError(f"expected 3 or 6 values (x,y,z[,roll,pitch,yaw]), got {len(v)}")
+            raise TrajectoryError(f"expected 3 or 6 values (x,y,z[,roll,pitch,yaw]), got {len(v)}")
         return cls(np.array(v[:3]), rpy_to_matrix(*v[3:]) if len(v) == 6 else np.eye(3))
 
     @classmethod
@@ -118,14 +125,34 @@ class Reference:
 
 
 class Trajectory(Protocol):
-    """Anything that gives a reference at time t, with a start time, duration, start and end pose."""
+    """Anything that gives a reference at time t, with a start time, duration, start and end pose.
 
-    t0: float
-    duration: float
-    start: Pose
-    end: Pose
+    The members are read-only: frozen dataclasses and properties satisfy them.
+    """
 
-    def sample(self, t: float) -> Reference: ...  # noqa: D102
+    @property
+    def t0(self) -> float:
+        """Start time, s."""
+        ...
+
+    @property
+    def duration(self) -> float:
+        """Duration, s."""
+        ...
+
+    @property
+    def start(self) -> Pose:
+        """The pose at the start."""
+        ...
+
+    @property
+    def end(self) -> Pose:
+        """The pose at the end."""
+        ...
+
+    def sample(self, t: float) -> Reference:
+        """The reference at time t, s."""
+        ...
 
 
 def _at_rest(pose: Pose) -> Reference:
@@ -167,10 +194,13 @@ class MinJerkMove:
     goal: Pose
     duration: float
     t0: float = 0.0
+    # derived in __post_init__: rotation axis-angle w (3,) and [goal - start position; w] (6,)
+    _w: np.ndarray = dataclasses.field(init=False, repr=False)
+    _dpw: np.ndarray = dataclasses.field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         if not self.duration > 0.0:
-            raise ValueError(f"duration must be > 0, got {self.duration!r}")
+            raise TrajectoryError(f"duration must be > 0, got {self.duration!r}")
         dp = self.goal.position - self.start.position
         w = rotation_log(self.goal.rotation @ self.start.rotation.T)
         object.__setattr__(self, "_w", w)
@@ -185,7 +215,7 @@ class MinJerkMove:
         """The reference at time t, s."""
         T = self.duration
         s, ds, dds = min_jerk((t - self.t0) / T)
-        w, dpw = self._w, self._dpw  # type: ignore[attr-defined]
+        w, dpw = self._w, self._dpw
         R = rotation_exp(s * w) @ self.start.rotation if s and w.any() else self.start.rotation
         return Reference(self.start.position + s * dpw[:3], R, (ds / T) * dpw,
                          (dds / T**2) * dpw)
@@ -212,7 +242,7 @@ class ArcMove:
 
     def __post_init__(self) -> None:
         if not self.duration > 0.0:
-            raise ValueError(f"duration must be > 0, got {self.duration!r}")
+            raise TrajectoryError(f"duration must be > 0, got {self.duration!r}")
         a = np.asarray(self.axis, dtype=float)
         object.__setattr__(self, "axis", a / np.linalg.norm(a))
         object.__setattr__(self, "center", np.asarray(self.center, dtype=float))
@@ -255,7 +285,7 @@ class Path:
 
     def __post_init__(self) -> None:
         if not self.segments:
-            raise ValueError("a path needs at least one segment")
+            raise TrajectoryError("a path needs at least one segment")
         t = self.t0
         placed = []
         for seg in self.segments:
@@ -263,7 +293,7 @@ class Path:
             t += seg.duration
         object.__setattr__(self, "segments", tuple(placed))
         if self.names and len(self.names) != len(self.segments):
-            raise ValueError(f"{len(self.names)} names for {len(self.segments)} segments")
+            raise TrajectoryError(f"{len(self.names)} names for {len(self.segments)} segments")
 
     @classmethod
     def via_points(cls, poses: Sequence[Pose], durations: Sequence[float], *,
@@ -277,8 +307,8 @@ class Path:
             t0: start time, s.
         """
         if len(poses) < 2 or len(durations) != len(poses) - 1:
-            raise ValueError(f"expected k >= 2 poses and k - 1 durations, got {len(poses)} poses "
-                             f"and {len(durations)} durations")
+            raise TrajectoryError(f"expected k >= 2 poses and k - 1 durations, got {len(poses)} "
+                                  f"poses and {len(durations)} durations")
         segs: list[Any] = []
         for i, T in enumerate(durations):
             if i and dwell > 0.0:
