@@ -8,17 +8,25 @@ by independent code (mjcf_gen from MjSpec, model from sympy) and integrated by i
 from __future__ import annotations
 
 import dataclasses
+import itertools
 from collections.abc import Callable, Mapping
+from typing import Literal
 
 import numpy as np
 from scipy.integrate import solve_ivp
 
 from maniplab.errors import ManiplabError
 from maniplab.model import AnalyticModel
+from maniplab.sim.errors import InputError
 from maniplab.sim.run import Run
 from maniplab.spec import ManipulatorSpec
 
 Signal = Callable[[float], float]
+
+Solver = Literal["RK23", "RK45", "DOP853", "Radau", "BDF", "LSODA"]
+SOLVERS: dict[str, Solver] = {name: name for name in
+                              ("RK23", "RK45", "DOP853", "Radau", "BDF", "LSODA")}
+"""scipy's ``solve_ivp`` methods by name."""
 
 
 def ideal(spec: ManipulatorSpec) -> ManipulatorSpec:
@@ -44,11 +52,17 @@ def integrate_analytic(spec: ManipulatorSpec, inputs: Mapping[str, Signal], t: n
         hold: when given, each input is held constant over [k·hold, (k+1)·hold), s, as a plant
             stepping with dt = hold applies it (the solver restarts at every hold boundary);
             otherwise inputs are continuous.
-        method, rtol, atol: solve_ivp's.
+        method, rtol, atol: solve_ivp's (``method`` one of :data:`SOLVERS`).
 
     Returns:
         A Run with q, qd (shape (N, n)) and ee_pos (N, 3); meta records the solver.
+
+    Raises:
+        InputError: an unknown ``method``.
     """
+    solver = SOLVERS.get(method)
+    if solver is None:
+        raise InputError(f"unknown scipy solver {method!r}; expected one of {', '.join(SOLVERS)}")
     model = AnalyticModel(spec)
     n = spec.n
     forces = [inputs.get(name) for name in spec.joint_names]
@@ -66,8 +80,8 @@ def integrate_analytic(spec: ManipulatorSpec, inputs: Mapping[str, Signal], t: n
     held = hold is not None and any(f is not None for f in forces)
     edges = _edges(t[0], t[-1], hold if held else None)
     states = []
-    for k, (start, stop) in enumerate(zip(edges[:-1], edges[1:])):
-        sol = solve_ivp(rhs, (start, stop), x, method=method, rtol=rtol, atol=atol,
+    for k, (start, stop) in enumerate(itertools.pairwise(edges)):
+        sol = solve_ivp(rhs, (start, stop), x, method=solver, rtol=rtol, atol=atol,
                         args=(tau(start) if held else None,), dense_output=True)
         if not sol.success:
             raise ManiplabError(f"scipy {method} failed on the analytic model of {spec.name} "
@@ -75,6 +89,7 @@ def integrate_analytic(spec: ManipulatorSpec, inputs: Mapping[str, Signal], t: n
         last = k == len(edges) - 2
         inside = t[(t >= start - 1e-12) & ((t < stop - 1e-12) | last)]
         if inside.size:
+            assert sol.sol is not None, "solve_ivp gives the dense solution with dense_output"
             states.append(sol.sol(inside))
         x = sol.y[:, -1]
     y = np.hstack(states)
@@ -89,7 +104,7 @@ def _edges(start: float, stop: float, hold: float | None) -> np.ndarray:
     """Restart times of the solver: every hold boundary, or just the two ends."""
     if hold is None:
         return np.array([start, stop])
-    edges = start + hold * np.arange(int(round((stop - start) / hold)) + 1)
+    edges = start + hold * np.arange(round((stop - start) / hold) + 1)
     edges[-1] = stop
     return edges
 
@@ -145,7 +160,9 @@ def crossvalidate(spec: ManipulatorSpec | str, *, inputs: Mapping[str, Signal] |
     arm = ideal(resolve_spec(spec))
     q0 = np.zeros(arm.n) if q0 is None else np.asarray(q0, dtype=float)
     inputs = dict(inputs or {})
-    plant_run = simulate(arm, inputs=inputs, duration=duration, dt=dt, sample_dt=sample_dt,
+    # the same signals for the plant, keyed as simulate's inputs are typed (by name or index)
+    plant_inputs: dict[str | int, Signal] = {name: f for name, f in inputs.items()}
+    plant_run = simulate(arm, inputs=plant_inputs, duration=duration, dt=dt, sample_dt=sample_dt,
                          initial={"q": q0}, label="MuJoCo plant")
     hold = float(plant_run.meta["dt"])
     analytic_run = integrate_analytic(arm, inputs, plant_run.t, q0=q0, hold=hold, method=method)

@@ -26,6 +26,13 @@ class RunFileError(ManiplabError):
     """A stored run cannot be read (missing, truncated, corrupt or from an unknown format)."""
 
 
+class RunShapeError(ManiplabError, ValueError):
+    """A run's signals do not have one sample per time.
+
+    It is also a ValueError, which :class:`Run` raised before.
+    """
+
+
 @dataclasses.dataclass(frozen=True, eq=False)
 class Run:
     """Sampled trajectory of one simulation.
@@ -49,7 +56,7 @@ class Run:
         n = len(self.t)
         for name, values in self.signals.items():
             if len(values) != n:
-                raise ValueError(f"signal {name!r} has {len(values)} samples, t has {n}")
+                raise RunShapeError(f"signal {name!r} has {len(values)} samples, t has {n}")
 
     @property
     def q(self) -> np.ndarray:

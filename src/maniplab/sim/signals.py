@@ -18,14 +18,22 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Callable
-from typing import Union
 
 import numpy as np
+
+from maniplab.sim.errors import InputError, SimulationError
 
 EPS = 1e-9
 """Time tolerance of events, s."""
 
-Number = Union[int, float]
+Number = int | float
+
+
+class SignalTypeError(SimulationError, TypeError):
+    """A value given as a signal is none of a signal, a number or a callable of time.
+
+    It is also a TypeError, which :func:`as_signal` raised before.
+    """
 
 
 class Signal:
@@ -107,7 +115,7 @@ class Impulse(Signal):
 
     def __post_init__(self) -> None:
         if not self.width > 0.0:
-            raise ValueError(f"impulse width must be > 0 s, got {self.width!r}")
+            raise InputError(f"impulse width must be > 0 s, got {self.width!r}")
 
     def __call__(self, t: float) -> float:
         inside = self.t0 - EPS <= t < self.t0 + self.width - EPS
@@ -148,7 +156,7 @@ class Ramp(Signal):
 
     def __post_init__(self) -> None:
         if self.t1 is not None and not self.t1 > self.t0:
-            raise ValueError(f"ramp end t1={self.t1!r} must be after t0={self.t0!r}")
+            raise InputError(f"ramp end t1={self.t1!r} must be after t0={self.t0!r}")
 
     def __call__(self, t: float) -> float:
         if t <= self.t0:
@@ -246,7 +254,8 @@ def as_signal(value: Signal | Number | Callable[[float], float]) -> Signal:
     if callable(value):
         name = getattr(value, "__qualname__", None) or repr(value)
         return Function(value, name)
-    raise TypeError(f"expected a signal, a number or a callable of time, got {value!r}")
+    raise SignalTypeError(f"expected a signal, a number or a callable of time, got {value!r}")
 
 
-__all__ = ["EPS", "Signal", "as_signal", "constant", "impulse", "ramp", "sine", "step"]
+__all__ = ["EPS", "Signal", "SignalTypeError", "as_signal", "constant", "impulse", "ramp", "sine",
+           "step"]

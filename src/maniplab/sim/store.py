@@ -66,7 +66,9 @@ def save(run: Run, path: Path) -> None:
     arrays = {f"signal/{name}": np.asarray(values) for name, values in run.signals.items()}
     header = json.dumps(header_of(run))
     with atomic_path(path) as tmp, open(tmp, "wb") as handle:
-        np.savez(handle, t=np.asarray(run.t), header=np.array(header), **arrays)
+        # allow_pickle is numpy's default, named so that no array is taken for the option
+        np.savez(handle, t=np.asarray(run.t), header=np.array(header), allow_pickle=True,
+                 **arrays)
 
 
 def read_header(path: Path) -> dict[str, Any]:

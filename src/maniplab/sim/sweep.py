@@ -21,6 +21,7 @@ from maniplab.builtin import resolve_spec
 from maniplab.errors import ManiplabError
 from maniplab.progress import Progress
 from maniplab.sim.params import format_parameters
+from maniplab.sim.run import Run
 from maniplab.sim.runset import Failure, RunSet
 from maniplab.sim.simulate import simulate
 from maniplab.spec import ManipulatorSpec
@@ -45,7 +46,7 @@ def variants(grid: Variants) -> list[dict[str, Any]]:
 
 
 def sweep(spec: ManipulatorSpec | str | os.PathLike[str], grid: Variants, *,
-          out: str | os.PathLike[str], inputs: Mapping[str, Any] | None = None,
+          out: str | os.PathLike[str], inputs: Mapping[str | int, Any] | None = None,
           duration: float, executor: Any = None, processes: int | None = None,
           progress: bool | None = None, **simulate_args: Any) -> RunSet:
     """Simulate every variant of ``spec`` and store the runs in the folder ``out``.
@@ -80,34 +81,34 @@ def sweep(spec: ManipulatorSpec | str | os.PathLike[str], grid: Variants, *,
         futures = {pool.submit(job, overrides): i for i, overrides in enumerate(todo)}
         for future in cf.as_completed(futures):
             i = futures[future]
-            run, error = future.result()
-            if run is None:
-                failures.append(Failure(todo[i], error))
+            outcome = future.result()
+            if isinstance(outcome, str):
+                failures.append(Failure(todo[i], outcome))
             else:
                 paths[i] = folder / f"{i:03d}_{_slug(todo[i])}.npz"
-                run.save(paths[i])
+                outcome.save(paths[i])
             bar.step(format_parameters(todo[i]))
     bar.close()
     return RunSet([paths[i] for i in sorted(paths)], failures=failures)
 
 
 class _Job:
-    """One variant's simulation, picklable for worker processes; returns (run, None) or
-    (None, error message)."""
+    """One variant's simulation, picklable for worker processes; returns the run or the error
+    message."""
 
-    def __init__(self, base: ManipulatorSpec, inputs: dict[str, Any], duration: float,
+    def __init__(self, base: ManipulatorSpec, inputs: dict[str | int, Any], duration: float,
                  simulate_args: dict[str, Any]) -> None:
         self.base, self.inputs, self.duration, self.args = base, inputs, duration, simulate_args
 
-    def __call__(self, overrides: dict[str, Any]) -> tuple[Any, str | None]:
+    def __call__(self, overrides: dict[str, Any]) -> Run | str:
         try:
             return simulate(self.base, overrides=overrides, inputs=self.inputs,
                             duration=self.duration, label=format_parameters(overrides) or None,
-                            **self.args), None
+                            **self.args)
         except ManiplabError as exc:
-            return None, str(exc)
+            return str(exc)
         except Exception as exc:  # noqa: BLE001 - a worker's bug must not stop the other variants
-            return None, f"{exc.__class__.__name__}: {exc}"
+            return f"{exc.__class__.__name__}: {exc}"
 
 
 class _InProcess(cf.Executor):
