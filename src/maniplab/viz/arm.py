@@ -96,7 +96,7 @@ class ArmView:
     def _rgba(self, geom: int, modes: np.ndarray, tint: palette.RGBA | None) -> palette.RGBA | None:
         joint = self._joint_of[geom]
         if joint != _NO_OBJECT:
-            state = palette.JOINT_STATES.get(int(modes[joint]))  # type: ignore[call-overload]
+            state = palette.JOINT_STATES.get(int(modes[joint]))
             if state is not None:
                 return state
         if tint is not None:

@@ -2,10 +2,16 @@
 
 from __future__ import annotations
 
+import contextlib
+from typing import TYPE_CHECKING
+
 import mujoco
 import numpy as np
 
 from maniplab.viz.gl import GLContext, RenderError, no_gl, open_context
+
+if TYPE_CHECKING:
+    from typing_extensions import Self
 
 SHADOW_MAP = 2048
 """Shadow-map size, pixels. MuJoCo's 4096 costs a third more time on a software rasteriser and
@@ -63,23 +69,19 @@ class Canvas:
     def close(self) -> None:
         """Free the render and OpenGL contexts (idempotent)."""
         if self._gl is not None and self._mjr is not None:
-            try:
+            with contextlib.suppress(Exception):  # at interpreter exit the display may be gone
                 self._gl.make_current()
                 self._mjr.free()
-            except Exception:  # noqa: BLE001 - at interpreter exit the display may be gone
-                pass
         self._mjr = None
         self._free_gl()
 
     def _free_gl(self) -> None:
         if self._gl is not None:
-            try:
+            with contextlib.suppress(Exception):  # as in close()
                 self._gl.free()
-            except Exception:  # noqa: BLE001 - as in close()
-                pass
         self._gl = None
 
-    def __enter__(self) -> Canvas:
+    def __enter__(self) -> Self:
         return self
 
     def __exit__(self, *_: object) -> None:

@@ -123,7 +123,7 @@ def frame_runs(runs: Sequence[Run], fps: float = 30.0) -> Framing:
     """The automatic camera's framing of all ``runs`` together, as grids and overlays use it."""
     runs = _non_empty(runs)
     times = frame_times(*run_span(runs), fps)
-    return _shared_camera(AUTO, [sample(run, times) for run in runs])  # type: ignore[return-value]
+    return _auto_framing([sample(run, times) for run in runs])
 
 
 class Grid:
@@ -293,8 +293,13 @@ def _non_empty(runs: Sequence[Run]) -> list[Run]:
 def _shared_camera(camera: str | Framing, motions: Sequence[Motion]) -> str | Framing:
     """The automatic camera framed once for all motions; other cameras unchanged."""
     if isinstance(camera, str) and camera == AUTO:
-        return frame_motions([ArmView(m.run.spec) for m in motions], motions)
+        return _auto_framing(motions)
     return camera
+
+
+def _auto_framing(motions: Sequence[Motion]) -> Framing:
+    """The automatic camera's framing of all motions together."""
+    return frame_motions([ArmView(m.run.spec) for m in motions], motions)
 
 
 def _strip(runs: Sequence[Run], plot: str | None, width: int, height: int, t0: float,

@@ -8,10 +8,10 @@ chooses ``egl`` when the user has not (see ``shared/DESIGN.md``).
 
 from __future__ import annotations
 
-from importlib import import_module
 import os
 import platform
 import warnings
+from importlib import import_module
 from typing import Any, Protocol
 
 from maniplab.errors import ManiplabError

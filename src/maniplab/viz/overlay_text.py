@@ -56,7 +56,7 @@ def text_patch(text: str, size: int, colour: palette.RGBA = palette.TEXT,
     lead = size + pad if swatch is not None else 0
     if width is not None:
         text = _fit(text, face, width - 2 * pad - lead)
-    left, top, right, bottom = face.getbbox(text or " ")
+    right = int(face.getbbox(text or " ")[2])  # whole pixels (Pillow types the box as floats)
     ascent, descent = face.getmetrics()
     patch = Image.new("RGBA", (lead + right + 2 * pad, ascent + descent + 2 * pad),
                       _rgba8(background))
@@ -77,7 +77,8 @@ def _fit(text: str, face: FreeTypeFont, width: int) -> str:
 
 
 def _rgba8(colour: palette.RGBA) -> tuple[int, int, int, int]:
-    return tuple(round(255 * c) for c in colour)  # type: ignore[return-value]
+    r, g, b, a = (round(255 * c) for c in colour)
+    return r, g, b, a
 
 
 def blend(frame: np.ndarray, patch: np.ndarray, x: int, y: int) -> None:

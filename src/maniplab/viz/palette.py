@@ -22,13 +22,14 @@ LINKS: tuple[RGBA, ...] = (
 )
 """Colour of link i is ``LINKS[i % len(LINKS)]``; no blue or red, which mark joint states."""
 
-JOINT_STATES: dict[FrictionMode, RGBA | None] = {
+JOINT_STATES: dict[int, RGBA | None] = {
     FrictionMode.SLIP: None,  # the model's own material (dark grey cylinders, grey rails)
     FrictionMode.STICK: (0.10, 0.35, 1.00, 1.0),
     FrictionMode.AT_LOWER: (0.92, 0.10, 0.08, 1.0),
     FrictionMode.AT_UPPER: (0.92, 0.10, 0.08, 1.0),
 }
-"""Colour of a joint's geom per mode; None keeps the model's colour."""
+"""Colour of a joint's geom per mode; None keeps the model's colour. The keys are FrictionMode
+values, so the integers a run's "mode" signal stores look them up directly."""
 
 STICK = JOINT_STATES[FrictionMode.STICK]
 LIMIT = JOINT_STATES[FrictionMode.AT_LOWER]
@@ -69,4 +70,5 @@ def run_colour(index: int) -> RGBA:
 
 def to_uint8(colour: RGBA) -> tuple[int, int, int]:
     """RGB of ``colour`` as 0..255 integers."""
-    return tuple(round(255 * c) for c in colour[:3])  # type: ignore[return-value]
+    r, g, b = (round(255 * c) for c in colour[:3])
+    return r, g, b

@@ -9,6 +9,7 @@ from __future__ import annotations
 import os
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import matplotlib
 import numpy as np
@@ -19,6 +20,9 @@ from maniplab.atomic import atomic_path
 from maniplab.errors import ManiplabError
 from maniplab.sim import params
 from maniplab.sim.run import Run
+
+if TYPE_CHECKING:
+    from matplotlib.typing import RcKeyType
 
 #: signal -> (axis label, scale to display unit, unit of R joints, unit of P joints)
 _DISPLAY: dict[str, tuple[str, float, str, str]] = {
@@ -33,15 +37,18 @@ _DISPLAY: dict[str, tuple[str, float, str, str]] = {
     "ctrl": ("command", 1.0, "", ""),
     "mode": ("friction mode", 1.0, "", ""),
 }
-_STYLE = {
+_STYLE: dict[RcKeyType, Any] = {
     "font.size": 9, "axes.titlesize": 9, "axes.labelsize": 9, "legend.fontsize": 8,
     "lines.linewidth": 1.3, "axes.grid": True, "grid.alpha": 0.3, "axes.spines.top": False,
     "axes.spines.right": False, "savefig.dpi": 150, "savefig.bbox": "tight",
 }
 
 
-class PlotError(ManiplabError):
-    """A plot was asked for signals or joints the runs do not have."""
+class PlotError(ManiplabError, ValueError):
+    """A plot was asked for no runs, or for signals or joints the runs do not have.
+
+    It is also a ValueError, which :func:`maniplab.viz.tracking.tracking_figure` raised before.
+    """
 
 
 def compare(runs: Sequence[Run], signals: Sequence[str] = ("q",),

@@ -92,6 +92,15 @@ class SceneComposition:
     """Drawing shared by one-scene videos: the scene, the time stamp, the joint-state key, an
     optional key of the runs (top right) and the plot strip. Subclasses set the attributes."""
 
+    width: int
+    height: int
+    times: np.ndarray  # frame times, s, shape (F,)
+    view_height: int  # pixels above the plot strip
+    font: int  # font size of the time stamp, pixels
+    text: bool  # draw the time stamp and the keys
+    key: np.ndarray | None  # the joint-state key, RGBA patch
+    strip: PlotStrip | None
+    view: SceneView
     runs_key: np.ndarray | None = None
 
     def compose(self, k: int, out: np.ndarray) -> None:

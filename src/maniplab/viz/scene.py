@@ -8,6 +8,7 @@ run colour; the floor, base, lights and camera are the first run's.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import mujoco
 import numpy as np
@@ -19,6 +20,9 @@ from maniplab.viz.canvas import Canvas
 from maniplab.viz.look import Look
 from maniplab.viz.timeline import Motion
 from maniplab.viz.trail import Trail, line_width, max_segments
+
+if TYPE_CHECKING:
+    from typing_extensions import Self
 
 _SPARE_GEOMS = 200  # labels, decor, and room for MuJoCo's own additions
 
@@ -100,7 +104,7 @@ class SceneView:
         """Free the OpenGL context."""
         self.canvas.close()
 
-    def __enter__(self) -> SceneView:
+    def __enter__(self) -> Self:
         return self
 
     def __exit__(self, *_: object) -> None:

@@ -7,11 +7,14 @@ reference, and per moving hydraulic joint the differential pressure and the valv
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from maniplab.control.trajectory import Trajectory
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 _COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b")
 
@@ -32,12 +35,14 @@ def _moving_joints(runs: Sequence[Any], limit: int = 4) -> list[int]:
 
 
 def tracking_figure(runs: Sequence[Any], trajectory: Trajectory,
-                    labels: Sequence[str] | None = None, title: str | None = None) -> Any:
+                    labels: Sequence[str] | None = None, title: str | None = None) -> Figure:
     """A matplotlib Figure comparing ``runs`` (``ml.Run``) with the reference ``trajectory``."""
     from matplotlib.figure import Figure
 
+    from maniplab.viz.plots import PlotError
+
     if not runs:
-        raise ValueError("tracking_figure needs at least one run")
+        raise PlotError("tracking_figure needs at least one run")
     labels = list(labels or [r.label for r in runs])
     joints = _moving_joints(runs)
     ncol = max(len(joints), 1)

@@ -6,6 +6,8 @@ lines cost a fifth more than no path at all.
 
 from __future__ import annotations
 
+import itertools
+
 import mujoco
 import numpy as np
 
@@ -41,7 +43,7 @@ class Trail:
     def add_to(self, scene: mujoco.MjvScene, tip: np.ndarray) -> None:
         """Add the path, from the first point to ``tip`` (the current position), to ``scene``."""
         path = self.points + [np.asarray(tip, dtype=float)]
-        for start, end in zip(path[:-1], path[1:]):
+        for start, end in itertools.pairwise(path):
             if scene.ngeom >= scene.maxgeom:
                 return
             if not np.any(end != start):  # the tip rests on the last point: nothing to draw

@@ -69,10 +69,12 @@ def _write(frames: Iterator[np.ndarray], path: Path, codec: str, fps: float) -> 
     shape = _check_frame(first, None)
     check_format(path, shape[1], shape[0])
     mediapy.set_ffmpeg(imageio_ffmpeg.get_ffmpeg_exe())
-    options = {"crf": CRF, "ffmpeg_args": ["-preset", PRESET]} if codec == "h264" else {}
+    # H.264 gets a quality and a preset; other codecs mediapy's defaults (no crf, no extra args)
+    h264 = codec == "h264"
     try:
-        with atomic_path(path) as tmp, mediapy.VideoWriter(tmp, shape, codec=codec, fps=fps,
-                                                           **options) as writer:
+        with atomic_path(path) as tmp, mediapy.VideoWriter(
+                tmp, shape, codec=codec, fps=fps, crf=CRF if h264 else None,
+                ffmpeg_args=["-preset", PRESET] if h264 else []) as writer:
             for frame in itertools.chain([first], frames):
                 _check_frame(frame, shape)
                 writer.add_image(frame)
