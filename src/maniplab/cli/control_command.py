@@ -39,9 +39,9 @@ def _cmd_control(args: argparse.Namespace) -> int:
     import json
 
     import maniplab as ml
+    from maniplab.atomic import write_text
     from maniplab.control.metrics import tracking_metrics
     from maniplab.control.point_to_point import ControlError, parse_numbers, plan_move
-    from maniplab.atomic import write_text
     from maniplab.viz.plots import save_figure
     from maniplab.viz.tracking import tracking_figure
 

@@ -5,8 +5,12 @@ from __future__ import annotations
 import argparse
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from maniplab.cli.common import spec_argument
+
+if TYPE_CHECKING:
+    from maniplab.sim.signals import Signal
 
 _INPUT_HELP = ("JOINT=SIGNAL, repeatable: valve current (A) of a hydraulic joint, force (N) or "
                "torque (N·m) of a torque joint. SIGNAL is a number or step:A[@T0], "
@@ -102,10 +106,12 @@ def _add_crossval(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=_cmd_crossval)
 
 
-def _inputs(texts: list[str]) -> dict[str, object]:
+def _inputs(texts: list[str]) -> dict[str | int, Signal]:
+    """Joint name -> signal of the --input options (the terms of one joint added up), typed as
+    ``simulate`` and ``sweep`` take their inputs."""
     from maniplab.sim.grammar import parse_input
 
-    inputs: dict[str, object] = {}
+    inputs: dict[str | int, Signal] = {}
     for text in texts:
         joint, signal = parse_input(text)
         inputs[joint] = inputs[joint] + signal if joint in inputs else signal
@@ -178,8 +184,9 @@ def _cmd_crossval(args: argparse.Namespace) -> int:
     from maniplab.sim.crossval import crossvalidate
     from maniplab.viz.plots import compare, save_figure
 
-    result = crossvalidate(args.spec, inputs=_inputs(args.input), duration=args.duration,
-                           method=args.method)
+    # crossvalidate takes joint names only, which these keys are
+    inputs = {str(joint): signal for joint, signal in _inputs(args.input).items()}
+    result = crossvalidate(args.spec, inputs=inputs, duration=args.duration, method=args.method)
     runs = [result.mujoco, result.analytic]
     figure = compare(runs, signals=["q"], labels=["MuJoCo plant (RK4)", f"analytic model ({args.method})"],
                      title=f"{result.mujoco.spec.name}: MuJoCo plant vs analytic model")

@@ -119,8 +119,8 @@ class Demo:
         ours, mujoco_us = _inverse_dynamics_speed(self.model, self.spec)
         self.figures["analytic_model"] = {"load_s": load_s, "backend": self.model.backend,
                                           "inverse_dynamics_us": ours, "mj_inverse_us": mujoco_us}
-        self.summary.append(("inverse dynamics per call", f"{ours:.2f} µs (MuJoCo mj_inverse "
-                                                          f"{mujoco_us:.2f} µs)"))
+        self.summary.append(("inverse dynamics per call", (f"{ours:.2f} µs (MuJoCo mj_inverse "
+                                                           f"{mujoco_us:.2f} µs)")))
         self.sections.append(Section(
             "The analytic model",
             "M(q), C(q, q̇), G(q) and the friction terms were derived symbolically from the spec "
@@ -151,17 +151,17 @@ class Demo:
         self.figures["open_loop"] = {"inputs": {k: repr(v) for k, v in inputs.items()},
                                      "runs": 3 * len(PAYLOADS) * len(LEAKAGES),
                                      "simulated_per_wall_s": simulated / wall}
-        self.summary.append(("open-loop runs", f"{3 * len(PAYLOADS) * len(LEAKAGES)} runs, "
-                                               f"{simulated / wall:.0f} s simulated per s"))
+        self.summary.append(("open-loop runs", (f"{3 * len(PAYLOADS) * len(LEAKAGES)} runs, "
+                                                f"{simulated / wall:.0f} s simulated per s")))
         self.sections.append(Section(
             "Open-loop responses",
             f"The valve of {JOINT} was driven by a step, an impulse and a sine of current for "
             f"three payloads and two leakages (a sweep in parallel processes); a heavier payload "
             f"needs a higher holding pressure and rings slower, a leakier cylinder lags behind.",
-            figures=[("variants per input", f"payload {', '.join(f'{m:g}' for m in PAYLOADS)} kg "
-                                            f"x leakage {', '.join(f'{x:g}' for x in LEAKAGES)}"),
-                     ("simulated per wall-clock second", f"{simulated / wall:.0f} s "
-                                                         "(all runs, 2 processes)")],
+            figures=[("variants per input", (f"payload {', '.join(f'{m:g}' for m in PAYLOADS)} kg "
+                                             f"x leakage {', '.join(f'{x:g}' for x in LEAKAGES)}")),
+                     ("simulated per wall-clock second", (f"{simulated / wall:.0f} s "
+                                                          "(all runs, 2 processes)"))],
             images=images))
 
     def closed_loop(self) -> None:
@@ -176,8 +176,8 @@ class Demo:
             rtf = run.t[-1] / (time.perf_counter() - began)
             run.save(self.out / "runs" / f"closed_loop_{mode}.npz")
             self.closed[mode] = (run, metrics, rtf)
-            rows += [(f"{label}: RMS / final error", f"{metrics.rms_error_mm:.2f} / "
-                                                     f"{metrics.final_error_mm:.2f} mm"),
+            rows += [(f"{label}: RMS / final error", (f"{metrics.rms_error_mm:.2f} / "
+                                                      f"{metrics.final_error_mm:.2f} mm")),
                      (f"{label}: peak ΔP, peak valve current",
                       f"{metrics.peak_dP_MPa:.1f} MPa, {metrics.peak_iv_A:.2f} A")]
         image = save_figure(tracking_figure([r for r, _, _ in self.closed.values()], move),
@@ -193,10 +193,10 @@ class Demo:
         self.figures["closed_loop"]["move"] = {
             "start_m": move.start.position.tolist(), "goal_m": move.goal.position.tolist(),
             "t0_s": move.t0, "duration_s": move.duration, "profile": "minimum jerk"}
-        self.summary += [("tracking error, cascade", f"{cascade.rms_error_mm:.2f} mm RMS, "
-                                                      f"{cascade.final_error_mm:.2f} mm final"),
-                         ("tracking error, PID only", f"{pid.rms_error_mm:.2f} mm RMS "
-                                                      f"({ratio:.1f}x the cascade's)"),
+        self.summary += [("tracking error, cascade", (f"{cascade.rms_error_mm:.2f} mm RMS, "
+                                                       f"{cascade.final_error_mm:.2f} mm final")),
+                         ("tracking error, PID only", (f"{pid.rms_error_mm:.2f} mm RMS "
+                                                       f"({ratio:.1f}x the cascade's)")),
                          ("closed-loop speed", f"{self.closed['cascade'][2]:.1f}x real time")]
         length = np.linalg.norm(move.goal.position - move.start.position)
         self.sections.append(Section(
@@ -217,15 +217,15 @@ class Demo:
                             self.out / "crossval.png")
         self.figures["crossval"] = {"max_deviation": result.max_deviation, "joint": result.joint,
                                     "time_s": result.time, "duration_s": self.settings.crossval_s}
-        self.summary.append(("model agreement", f"{result.max_deviation:.1e} rad over "
-                                                f"{self.settings.crossval_s:g} s"))
+        self.summary.append(("model agreement", (f"{result.max_deviation:.1e} rad over "
+                                                 f"{self.settings.crossval_s:g} s")))
         self.sections.append(Section(
             "Cross-validation of the two models",
             "With ideal actuators and no friction, the erector released under gravity was "
             "simulated by MuJoCo from the MJCF and by scipy from the analytic model; the two are "
             "built by independent code, so their agreement shows they describe the same arm.",
-            figures=[("largest joint deviation", f"{result.max_deviation:.2e} rad (joint "
-                                                 f"{result.joint}, t = {result.time:.2f} s)")],
+            figures=[("largest joint deviation", (f"{result.max_deviation:.2e} rad (joint "
+                                                  f"{result.joint}, t = {result.time:.2f} s)"))],
             images=[image]))
 
     def videos(self) -> None:

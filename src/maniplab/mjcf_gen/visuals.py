@@ -305,6 +305,7 @@ def _add_link_shape(body: mujoco.MjsBody, joint: Joint, radius: float, reach: fl
             **_NO_CONTACT,
         )
     elif link.mass > 0.0:
+        assert link.com is not None  # Body.__post_init__ fills in a com that was not given
         solid = (3.0 * link.mass / (4.0 * math.pi * _STEEL_DENSITY)) ** (1.0 / 3.0)
         body.add_geom(
             name=names.link_geom_name(joint.name),

@@ -25,9 +25,9 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from maniplab.atomic import write_text
 from maniplab.builtin import resolve_spec
 from maniplab.mjcf_gen import builder
-from maniplab.atomic import write_text
 
 # (MjSpec attribute, XML attribute) per element kind, in the order they are written.
 _Attrs = Sequence[tuple[str, str]]
