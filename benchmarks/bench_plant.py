@@ -77,7 +77,7 @@ def erector(repeats: int) -> list[str]:
 
         result = run()
         if route == "native":
-            modes = [sorted({ml.actuators.FrictionMode(m).name for m in result["mode"][:, j]})
+            modes = [sorted({ml.friction.FrictionMode(m).name for m in result["mode"][:, j]})
                      for j in range(6)]
         t = timed(run, n)
         rows.append((f"plant, {route} route (10 s simulated)", t,

@@ -31,7 +31,7 @@ WIDTH, HEIGHT, FPS, DURATION = 1280, 720, 30.0, 10.0
 def erector_run(scale: float = 1.0, payload: float | None = None):  # -> Run
     """10 s of the erector swinging q1 and q2, the elbow (q2) sticking from 4 to 5 s."""
     import maniplab as ml
-    from maniplab.actuators.modes import FrictionMode
+    from maniplab.friction.modes import FrictionMode
     from maniplab.sim.run import Run
 
     spec = ml.builtin_spec(SPEC)

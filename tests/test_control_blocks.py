@@ -1,5 +1,5 @@
-"""G1 (against MuJoCo's mj_inverse), the domain transformation, G2 (inverts eq. 4) and the
-pressure loop (against eq. 4 integrated on its own)."""
+"""G1 (against MuJoCo's mj_inverse), the hydraulic drive's domain transformation, G2 (inverts
+eq. 4) and the pressure loop (against eq. 4 integrated on its own)."""
 
 from __future__ import annotations
 
@@ -8,10 +8,9 @@ import numpy as np
 import pytest
 
 import maniplab as ml
-from maniplab.control.actuation import ActuatorArrays
-from maniplab.control.inverse_dynamics import InverseDynamics, to_pressure
-from maniplab.control.pressure import PressureLoop
-from maniplab.control.valve import valve_current, valve_flow
+from maniplab.actuators.hydraulic import PressureDrive, PressureLoop, valve_current, valve_flow
+from maniplab.control.inverse_dynamics import InverseDynamics
+from maniplab.spec import ControlSpec, model_of
 
 
 @pytest.fixture(scope="module")
@@ -51,13 +50,15 @@ def test_g1_coulomb_feedforward(erector: ml.ManipulatorSpec) -> None:
 
 def test_domain_transformation_divides_by_area() -> None:
     spec = ml.builtin_spec("erector").with_overrides({"joints.q4.actuator": {"type": "torque"}})
-    act = ActuatorArrays.from_spec(spec)
+    hydraulic = [0, 1, 2, 4, 5]
+    drive = PressureDrive([model_of(spec.joints[j]) for j in hydraulic], hydraulic, dt=5e-3,
+                          settings=ControlSpec())
     tau = np.arange(1.0, 7.0) * 1e3
-    dP = to_pressure(tau, act)
+    zeros = np.zeros(5)
+    drive.command(tau[hydraulic], zeros, zeros, zeros, {"dP": zeros})
     areas = [j.actuator.area for j in spec.joints if j.actuator.type == "hydraulic"]
-    np.testing.assert_allclose(dP[act.hydraulic], tau[act.hydraulic] / areas)
-    assert np.isnan(dP[3])
-    assert act.command_limit[3] == np.inf and act.command_limit[0] == 1.0
+    np.testing.assert_allclose(drive.log["dP_d"], tau[hydraulic] / areas)
+    assert model_of(spec.joints[3]).command_limit is None and drive.limit[0] == 1.0
 
 
 # --- G2 --------------------------------------------------------------------------------------
@@ -95,11 +96,15 @@ def one_joint(**override: float) -> ml.ManipulatorSpec:
         {"type": "P", "axis": "x", "body": {"length": 1.0, "mass": 100.0}, "actuator": actuator}]})
 
 
+def loop_of(spec: ml.ManipulatorSpec, **gains: float | bool) -> PressureLoop:
+    a = spec.joints[0].actuator
+    return PressureLoop([a.area], [a.volume / a.bulk_modulus], [a.leakage], **gains)
+
+
 def test_pressure_loop_first_sample_by_hand() -> None:
-    act = ActuatorArrays.from_spec(one_joint())
-    loop = PressureLoop(act, dt=1e-3, bandwidth=50.0, speed_gain=0.5, compressibility=True)
+    loop = loop_of(one_joint(), dt=1e-3, bandwidth=50.0, speed_gain=0.5, compressibility=True)
     dP_d, dP, qd, qd_ref = 5e6, 4e6, 0.1, 0.2
-    phi = loop.update([dP_d], [dP], [qd], [qd_ref])[0]
+    phi = loop.flow([dP_d], [dP], [qd], [qd_ref])[0]
     # A q̇ + Le ΔP + ω V/E (ΔP_d - ΔP) + k_v A (q̇_ref - q̇); no ΔP_d rate on the first sample
     expected = 0.01 * 0.1 + 1e-11 * 4e6 + 50.0 * 0.002 / 1e9 * 1e6 + 0.5 * 0.01 * 0.1
     assert phi == pytest.approx(expected, rel=1e-12)
@@ -109,28 +114,26 @@ def test_pressure_error_decays_at_the_loop_bandwidth() -> None:
     # eq. (4)'s pressure equation, the valve taken as ideal (Q = Φ) and the piston moving at a
     # constant speed: the loop cancels the piston flow and leakage, so e(t) = e0 exp(-ω t)
     spec = one_joint()
-    act = ActuatorArrays.from_spec(spec)
     a = spec.joints[0].actuator
     dt, omega, v = 1e-4, 30.0, 0.05
-    loop = PressureLoop(act, dt=dt, bandwidth=omega, compressibility=False)
+    loop = loop_of(spec, dt=dt, bandwidth=omega, compressibility=False)
     dP, target = 0.0, 2e6
     for _ in range(1000):  # 0.1 s
-        Q = loop.update([target], [dP], [v])[0]
+        Q = loop.flow([target], [dP], [v])[0]
         dP += dt * a.bulk_modulus / a.volume * (Q - a.leakage * dP - a.area * v)
     assert (target - dP) == pytest.approx(target * np.exp(-omega * 0.1), rel=0.01)
 
 
 def test_compressibility_term_tracks_a_pressure_ramp() -> None:
     spec = one_joint(leakage=0.0)
-    act = ActuatorArrays.from_spec(spec)
     a = spec.joints[0].actuator
     dt, slope = 1e-4, 5e7  # Pa/s
     results = {}
     for comp in (False, True):
-        loop = PressureLoop(act, dt=dt, bandwidth=20.0, rate_filter=0.0, compressibility=comp)
+        loop = loop_of(spec, dt=dt, bandwidth=20.0, rate_filter=0.0, compressibility=comp)
         dP = 0.0
         for k in range(2000):
-            Q = loop.update([slope * k * dt], [dP], [0.0])[0]
+            Q = loop.flow([slope * k * dt], [dP], [0.0])[0]
             dP += dt * a.bulk_modulus / a.volume * Q
         results[comp] = slope * 2000 * dt - dP
     # without it a ramp leaves a lag of slope/ω; with it the lag is one sample's worth

@@ -53,7 +53,7 @@ def test_log_signals_and_resampling(erector: tuple) -> None:
     for k in range(5):
         c(k * 0.01, {"q": Q0, "qd": np.zeros(6), "dP": np.full(6, 2e6)})
     sig = c.signals()
-    assert set(sig) == set(LOG_SIGNALS)
+    assert set(sig) == set(c.log_signals) == set(LOG_SIGNALS) | {"dP_d", "phi"}
     assert sig["x_d"].shape == (5, 6) and sig["cmd"].shape == (5, 6) and sig["a_x"].shape == (5, 6)
     np.testing.assert_allclose(sig["x"][0, :3], am.fk(Q0)[:3, 3])
     np.testing.assert_allclose(sig["x_d"][0], move(am).start.xyzrpy, atol=1e-12)

@@ -12,7 +12,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import maniplab as ml
-from maniplab.actuators.lugre import LuGreJoint, steady_force
+from maniplab.friction.lugre import LuGreJoint, steady_force
 
 # Table I of the 1995 paper (REFERENCES.md); the static level Fs is coulomb + static
 SIGMA0, SIGMA1, SIGMA2 = 1e5, math.sqrt(1e5), 0.4
@@ -118,5 +118,5 @@ def test_hybrid_stick_slip_period_is_lugres() -> None:
     period, lugre_period = np.diff(hybrid_onsets)[0], np.diff(lugre_onsets)[0]
     assert period == pytest.approx(lugre_period, rel=0.10)
     # and the stuck phases really stand still
-    stuck = hybrid["mode"][:, 0] == ml.actuators.FrictionMode.STICK
+    stuck = hybrid["mode"][:, 0] == ml.friction.FrictionMode.STICK
     assert stuck.mean() > 0.5 and np.all(hybrid.qd[stuck, 0] == 0.0)

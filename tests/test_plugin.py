@@ -15,7 +15,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import maniplab as ml
-from maniplab.actuators import plugin as plugin_module
+from maniplab.actuators import registry as registry_module
 from plugins.dcmotor import GearedDCMotor
 
 MOTOR = {"resistance": 1.0, "inductance": 5e-3, "torque_constant": 0.05, "gear_ratio": 20.0,
@@ -144,14 +144,14 @@ def test_unknown_plugin_types_are_spec_errors(kind, words) -> None:
 
 
 def test_registered_names_and_entry_points(monkeypatch) -> None:
-    monkeypatch.setitem(plugin_module._REGISTRY, "test-motor", GearedDCMotor)
-    assert motor_arm("test-motor").joints[0].actuator.plugin is GearedDCMotor
+    monkeypatch.setitem(registry_module._REGISTRY, "test-motor", GearedDCMotor)
+    assert isinstance(ml.spec.model_of(motor_arm("test-motor").joints[0]), GearedDCMotor)
     point = importlib.metadata.EntryPoint(name="test-dcmotor",
                                           value="plugins.dcmotor:GearedDCMotor",
                                           group=ml.actuators.ENTRY_POINT_GROUP)
-    monkeypatch.setattr(plugin_module, "entry_points", lambda group: [point])
+    monkeypatch.setattr(registry_module, "entry_points", lambda group: [point])
     spec = motor_arm("test-dcmotor")
-    assert spec.joints[0].actuator.plugin is GearedDCMotor
+    assert isinstance(ml.spec.model_of(spec.joints[0]), GearedDCMotor)
     assert ml.actuators.resolve("torque") is ml.actuators.TorqueSource
     with pytest.raises(ValueError, match="already registered"):
         ml.actuators.register("torque", GearedDCMotor)

@@ -31,7 +31,7 @@ def test_run_has_the_standard_signals(erector_run) -> None:
     # the force of a cylinder is A ΔP
     areas = np.array([j.actuator.area for j in run.spec.joints])
     np.testing.assert_allclose(run["tau_act"], areas * run["dP"])
-    assert set(np.unique(run["mode"])) <= {m.value for m in ml.actuators.FrictionMode}
+    assert set(np.unique(run["mode"])) <= {m.value for m in ml.friction.FrictionMode}
 
 
 def test_end_effector_matches_the_analytic_kinematics(erector_run) -> None:
@@ -177,7 +177,7 @@ def test_initial_state() -> None:
     assert run.q[0].tolist() == [0.0, 0.5] and run.qd[0].tolist() == [1.0, 0.0]
     plant = ml.Plant("erector")
     plant.set_state(q=[9.0, 0, 0, 0, 0, 0])  # beyond the limit 3.5: put on it
-    assert plant.data.qpos[0] == 3.5 and plant.modes[0] == ml.actuators.FrictionMode.AT_UPPER
+    assert plant.data.qpos[0] == 3.5 and plant.modes[0] == ml.friction.FrictionMode.AT_UPPER
 
 
 @pytest.mark.parametrize(("kwargs", "words"), [

@@ -40,7 +40,7 @@ def test_pressure_of_a_held_piston_under_constant_flow(route) -> None:
     run = ml.simulate(held_piston(), inputs={"piston": iv}, duration=0.3, route=route,
                       initial={"Q": [Q]})
     exact = Q / Le * (1.0 - np.exp(-Le * E * run.t / V))
-    assert np.all(run.q == 0.0) and np.all(run["mode"] == ml.actuators.FrictionMode.STICK)
+    assert np.all(run.q == 0.0) and np.all(run["mode"] == ml.friction.FrictionMode.STICK)
     np.testing.assert_allclose(run["dP"][1:, 0], exact[1:], rtol=1e-3)
     np.testing.assert_allclose(run["Q"][:, 0], Q, rtol=1e-8)
     # stiction holds exactly the pressure force, averaged over each step

@@ -17,7 +17,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import maniplab as ml
-from maniplab.specfile import _problem, load_spec, parse_yaml
+from maniplab.schema.translate import problem_text as _problem
+from maniplab.spec.files import load_spec
+from maniplab.spec.yaml_io import parse_yaml
 
 ARM = """\
 name: arm

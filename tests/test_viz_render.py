@@ -18,7 +18,7 @@ import pytest
 
 import maniplab as ml
 from maniplab import viz
-from maniplab.actuators.modes import FrictionMode
+from maniplab.friction.modes import FrictionMode
 from maniplab.cli import main
 from maniplab.sim.run import Run
 from maniplab.viz.gl import RenderError, open_context

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import maniplab as ml
-from maniplab.actuators.modes import FrictionMode
+from maniplab.friction.modes import FrictionMode
 from maniplab.sim.run import Run
 from maniplab.viz.gl import RenderError
 from maniplab.viz.timeline import frame_times, limit_modes, sample

@@ -36,6 +36,8 @@ from maniplab.sim.crossval import crossvalidate
 from maniplab.sim.runset import RunSet
 from maniplab.sim.sweep import sweep
 from maniplab.spec import (
+    PluginActuator,
+    load_spec,
     Axis,
     Body,
     ControlSpec,
@@ -48,7 +50,6 @@ from maniplab.spec import (
     ManipulatorSpec,
     TorqueActuator,
 )
-from maniplab.specfile import load_spec
 from maniplab.viz import render, write_video
 
 try:
@@ -72,6 +73,7 @@ __all__ = [
     "Joint",
     "JointType",
     "ManipulatorSpec",
+    "PluginActuator",
     "ManiplabError",
     "InputError",
     "InstabilityError",

@@ -9,7 +9,7 @@ from pathlib import Path
 
 from maniplab.errors import SpecError
 from maniplab.spec import ManipulatorSpec
-from maniplab.specfile import load_spec
+from maniplab.spec.files import load_spec
 
 
 def _assets() -> Path:

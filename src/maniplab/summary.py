@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from maniplab.spec import HydraulicActuator, Joint, ManipulatorSpec, TorqueActuator
+from maniplab.spec import Joint, ManipulatorSpec, model_of
 
 _HEADER = ("joint", "type", "axis", "limits", "body length", "direction", "mass [kg]",
            "actuator", "friction")
@@ -37,20 +37,9 @@ def _row(joint: Joint) -> tuple[str, ...]:
         f"{body.length:g} m" if body else "-",
         _vec(body.direction) if body else "-",
         f"{body.mass:g}" if body else "-",
-        _actuator(joint),
+        model_of(joint).describe(),
         joint.friction.model.value,
     )
-
-
-def _actuator(joint: Joint) -> str:
-    act = joint.actuator
-    if isinstance(act, HydraulicActuator):
-        unit = "m²" if joint.prismatic else "m³/rad"
-        return f"hydraulic A={act.area:g} {unit} Ps={act.supply_pressure / 1e6:g} MPa"
-    if isinstance(act, TorqueActuator):
-        name = "force" if joint.prismatic else "torque"
-        return name + (f" |u|<={act.limit:g}" if act.limit else "")
-    return str(getattr(act, "type", act))
 
 
 def _vec(values: tuple[float, ...]) -> str:

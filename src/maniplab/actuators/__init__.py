@@ -1,28 +1,42 @@
-"""Actuators and joint friction: torque source, hydraulic valve-cylinder, hybrid friction, LuGre.
+"""Actuators: the interface every joint actuator implements, the registry of actuator types, the
+built-in torque source and hydraulic cylinder, and the drives controllers use.
 
-Every actuator is an :class:`ActuatorPlugin` (see :mod:`~maniplab.actuators.plugin`); users add
-their own by subclassing it and naming the class in a spec.
+Every actuator is an :class:`ActuatorPlugin`; users add their own by subclassing it and naming
+the class in a spec (see :mod:`~maniplab.actuators.registry`).
 """
 
-from maniplab.actuators.hydraulic import HydraulicCylinder
-from maniplab.actuators.modes import FrictionMode
-from maniplab.actuators.plugin import (
-    ENTRY_POINT_GROUP,
+from maniplab.actuators.base import (
     ActuatorPlugin,
-    PluginLookupError,
+    CapabilityError,
+    Jacobians,
+    Steady,
     parameters,
+)
+from maniplab.actuators.drive import ForceDrive, StaticDrive
+from maniplab.actuators.hydraulic import HydraulicActuator, HydraulicCylinder
+from maniplab.actuators.native import NativeGroup
+from maniplab.actuators.registry import (
+    ENTRY_POINT_GROUP,
+    PluginLookupError,
     register,
     registered,
     resolve,
 )
-from maniplab.actuators.torque import TorqueSource
+from maniplab.actuators.torque import TorqueActuator, TorqueSource
 
 __all__ = [
     "ENTRY_POINT_GROUP",
     "ActuatorPlugin",
-    "FrictionMode",
+    "CapabilityError",
+    "ForceDrive",
+    "HydraulicActuator",
     "HydraulicCylinder",
+    "Jacobians",
+    "NativeGroup",
     "PluginLookupError",
+    "StaticDrive",
+    "Steady",
+    "TorqueActuator",
     "TorqueSource",
     "parameters",
     "register",

@@ -2,24 +2,43 @@
 
 from __future__ import annotations
 
-from typing import ClassVar
+from typing import ClassVar, Literal
 
+import mujoco
 import numpy as np
 
-from maniplab.actuators.plugin import ActuatorPlugin
-from maniplab.spec import TorqueActuator
+from maniplab.actuators.base import ActuatorPlugin, Steady, set_command_range
+from maniplab.actuators.native import NativeGroup
+from maniplab.schema import Positive, validated
+
+
+@validated
+class TorqueActuator:
+    """An ideal force (prismatic) or torque (rotational) source: the command is the force.
+
+    Attributes:
+        type: "torque".
+        limit: largest |force| in N or N·m, or None for no limit.
+    """
+
+    EXAMPLE: ClassVar[str] = "type: torque"
+
+    type: Literal["torque"] = "torque"
+    limit: Positive | None = None
 
 
 class TorqueSource(ActuatorPlugin):
     """Ideal source: force = u (N on a prismatic joint, N·m on a rotational one), |u| <= limit.
 
-    Stateless. On the plant's native route it is MuJoCo's own motor actuator (gain 1, the command
-    written to ``ctrl``), so MuJoCo holds the force constant over each step.
+    Stateless. In the MuJoCo model it is MuJoCo's own motor (gain 1, ``ctrlrange`` ±limit), which
+    holds the force constant over each step; so on the plant's native route MuJoCo alone drives it.
     """
 
     Params: ClassVar[type] = TorqueActuator
     command: ClassVar[str] = "tau"
     command_unit: ClassVar[str] = "N | N·m"
+    native: ClassVar[type[NativeGroup]] = NativeGroup
+    params: TorqueActuator
 
     @property
     def command_limit(self) -> float | None:
@@ -29,3 +48,21 @@ class TorqueSource(ActuatorPlugin):
     def force(self, x: np.ndarray, u: float, q: float, v: float) -> float:
         """The command itself."""
         return float(u)
+
+    def forces(self, x: np.ndarray, u: np.ndarray, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """The commands, (N,)."""
+        return np.asarray(u, dtype=float).copy()
+
+    def steady(self, force: float, q: float, v: float) -> Steady:
+        """The force itself is the command."""
+        return Steady(np.zeros(0), force)
+
+    def configure_mjcf(self, act: mujoco.MjsActuator) -> None:
+        """MuJoCo's motor: gain 1, no bias, ``ctrlrange`` ±limit."""
+        set_command_range(act, self.command_limit)
+
+    def describe(self) -> str:
+        """``torque |u|<=limit`` (``force`` on a prismatic joint)."""
+        name = "force" if self.joint.prismatic else "torque"
+        limit = self.params.limit
+        return name + (f" |u|<={limit:g}" if limit else "")

@@ -5,12 +5,17 @@ Each controller sample (at ``rate`` Hz, zero-order hold in between):
 1. G3: pose x = (p, R) and twist J q̇ from the joint sensors;
 2. outer loop: a_x = ẍ_d + PID(x_d - x, ẋ_d - J q̇) on the task rows (position, or pose);
 3. q̈_d = J⁺(a_x - J̇q̇) by damped least squares (+ null-space damping on a redundant arm);
-4. G1: τ_d = M q̈_d + C q̇ + G + Fv q̇, then ΔP_d = τ_d / A at hydraulic joints;
-5. inner loop: flow Φ from the pressure and speed errors plus the piston's flow;
-6. G2: valve inversion Φ -> i_v (clipped). Torque joints get τ_d directly.
+4. G1: τ_d = M q̈_d + C q̇ + G + Fv q̇;
+5. each joint's actuator drive turns τ_d into its command (:meth:`ActuatorPlugin.drive
+   <maniplab.actuators.ActuatorPlugin.drive>`): on a hydraulic joint the paper's inner loop,
+   ΔP_d = τ_d / A, the flow Φ from the pressure and speed errors plus the piston's flow, and G2,
+   the valve inversion Φ -> i_v (clipped); a torque joint gets τ_d itself; another plugin its
+   steady-state inversion, or the controller refuses it (naming the joint) when it declares none.
 
 ``mode="pid"`` is the baseline without feedback linearisation: the Cartesian error is mapped to
-joint errors by the same damped least squares and a PID per joint commands the valve directly.
+joint errors by the same damped least squares and a PID per joint commands a joint speed, which a
+valve's drive turns into a current directly (a drive without a speed command gets the speed
+times the joint's inertia as a force).
 """
 
 from __future__ import annotations
@@ -22,15 +27,13 @@ from typing import Any
 
 import numpy as np
 
-from maniplab.control.actuation import ActuatorArrays
+from maniplab.actuators import ActuatorPlugin, ForceDrive
 from maniplab.control.inverse_dynamics import InverseDynamics
 from maniplab.control.kinematics import DampedLeastSquares, Kinematics, matrix_to_rpy, rotation_log
 from maniplab.control.pid import PID
-from maniplab.control.pressure import PressureLoop
 from maniplab.control.trajectory import Trajectory
-from maniplab.control.valve import valve_current
 from maniplab.model import AnalyticModel
-from maniplab.spec import ControlSpec, ManipulatorSpec
+from maniplab.spec import ControlSpec, ManipulatorSpec, model_of
 
 MODES = ("cascade", "pid")
 
@@ -42,10 +45,10 @@ LOG_SIGNALS: dict[str, tuple[str, str]] = {
     "a_x": ("outer-loop Cartesian acceleration (6; NaN off the task rows)", "m/s² | rad/s²"),
     "qdd_d": ("desired joint accelerations", "rad/s² | m/s²"),
     "tau_d": ("G1 joint forces", "N·m | N"),
-    "dP_d": ("desired differential pressure (NaN at torque joints)", "Pa"),
-    "phi": ("flow command Φ (NaN at torque joints)", "m³/s"),
-    "cmd": ("command: valve current i_v, or force at torque joints", "A | N·m | N"),
+    "cmd": ("command: valve current i_v, or force at torque joints, or a plugin's command",
+            "A | N·m | N | ..."),
 }
+"""The cascade's own log; the drives add theirs (e.g. the hydraulic ``dP_d`` and ``phi``)."""
 
 
 def _read(state: Any, name: str) -> np.ndarray | None:
@@ -86,7 +89,7 @@ class CascadeController:
         self.n = spec.n
         self.model = model or AnalyticModel(spec)
         self.kin = Kinematics(self.model)
-        self.act = ActuatorArrays.from_spec(spec)
+        self.actuators: list[ActuatorPlugin] = [model_of(j) for j in spec.joints]
         self.rate = gains.rate
         self.dt = 1.0 / gains.rate
         task = gains.task or ("pose" if spec.n >= 6 else "position")
@@ -102,45 +105,39 @@ class CascadeController:
         self.outer = PID(pick(pos.kp, ori.kp), pick(pos.ki, ori.ki), pick(pos.kd, ori.kd),
                          dt=self.dt, filter_time=g.derivative_filter)
         self.g1 = InverseDynamics(self.model, coulomb=g.coulomb_feedforward)
-        p = g.pressure
-        self.pressure = PressureLoop(self.act, dt=self.dt, bandwidth=p.bandwidth,
-                                     integral=p.integral, speed_gain=p.speed_gain,
-                                     rate_filter=p.rate_filter)
-        # baseline: joint speed limit = no-load speed at full current (none at torque joints)
-        vmax = np.where(self.act.hydraulic, self.act.current_limit * self.act.valve_gain
-                        / self.act.area, np.inf)
+        self.drives = _drives(self.actuators, dt=self.dt, settings=g)
+        self.log_signals = {**LOG_SIGNALS, **{k: v for d in self.drives
+                                               for k, v in d.signals.items()}}
+        """Every signal the controller logs: the cascade's and its drives'."""
+        self._needs = sorted({name for d in self.drives for name in d.needs})
+        # baseline: joint speed limit = no-load speed at full command (inf where not limited)
+        vmax = np.array([a.top_speed for a in self.actuators])
         b = g.pid_only
         self.joint_pid = PID(b.kp, b.ki, b.kd, dt=self.dt, size=n, limits=(-vmax, vmax))
-        self._limit = self.act.command_limit
-        hyd = np.flatnonzero(self.act.hydraulic)
-        self._h: Any = slice(None) if len(hyd) == n else hyd  # a view when every joint is
-        self._has_h = len(hyd) > 0
-        self._torque = np.flatnonzero(~self.act.hydraulic)
+        self._limit = np.concatenate([d.limit for d in self.drives])[
+            np.argsort(np.concatenate([d.joints for d in self.drives]))]
         self._nan_n, self._nan_6 = np.full(n, np.nan), np.full(6, np.nan)
-        self._area = self.act.area[self._h]
-        self._cv = self.act.valve_gain[self._h]
-        self._ps = self.act.supply_pressure[self._h]
-        self._imax = self.act.current_limit[self._h]
         self._redundant = n > m and g.null_damping > 0.0
-        # joint weights of the least squares: each joint's top speed, relative (1 at torque joints)
-        speed = np.where(self.act.hydraulic, vmax, np.nan)
-        top = np.nanmax(speed) if self.act.hydraulic.any() else 1.0
-        self.weights = (np.where(self.act.hydraulic, speed / top, 1.0)
-                        if g.capacity_weighting else None)
+        # joint weights of the least squares: each joint's top speed, relative (1 where unlimited)
+        finite = np.isfinite(vmax)
+        top = vmax[finite].max() if finite.any() else 1.0
+        self.weights = (np.where(finite, vmax / top, 1.0) if g.capacity_weighting else None)
 
     def reset(self) -> None:
         """Clear the loops' states, the held command and the log."""
         self.outer.reset()
-        self.pressure.reset()
+        for drive in self.drives:
+            drive.reset()
         self.joint_pid.reset()
         self._next = -math.inf
         self._command = np.zeros(self.n)
         self._saturated = False
-        self._log: dict[str, list[np.ndarray]] = {k: [] for k in ("t", *LOG_SIGNALS)}
+        self._log: dict[str, list[Any]] = {k: [] for k in ("t", *self.log_signals)}
 
     # --- the control law ---------------------------------------------------------------------
     def __call__(self, t: float, state: Any) -> np.ndarray:
-        """The command at time t for the plant state (fields q, qd, dP), shape (n,).
+        """The command at time t for the plant state (fields q, qd and the actuator states its
+        drives need, e.g. dP; a missing state reads as zeros), shape (n,).
 
         Between samples the last command is returned unchanged (zero-order hold).
         """
@@ -152,14 +149,16 @@ class CascadeController:
         q, qd = _read(state, "q"), _read(state, "qd")
         if q is None or qd is None:
             raise TypeError("the controller needs a state with fields q and qd (and dP)")
-        dP = _read(state, "dP")
-        if dP is None:
-            dP = np.zeros(self.n)
-        self._command = self.step(t, q, qd, dP)
+        states = {}
+        for name in self._needs:
+            value = _read(state, name)
+            states[name] = np.zeros(self.n) if value is None else value
+        self._command = self.step(t, q, qd, **states)
         return self._command
 
-    def step(self, t: float, q: np.ndarray, qd: np.ndarray, dP: np.ndarray) -> np.ndarray:
-        """One controller sample (no hold): the command for state (q, q̇, ΔP), shape (n,)."""
+    def step(self, t: float, q: np.ndarray, qd: np.ndarray, **states: np.ndarray) -> np.ndarray:
+        """One controller sample (no hold): the command for state (q, q̇, actuator states by
+        name, each (n,)), shape (n,)."""
         ref = self.trajectory.sample(t)
         p, R = self.kin.pose(q)
         J = self.kin.jacobian(q)
@@ -174,16 +173,16 @@ class CascadeController:
         dls = DampedLeastSquares(Js, damping=self.gains.dls_damping,
                                  threshold=self.gains.dls_threshold, weights=self.weights)
         if self.mode == "pid":
-            cmd, log = self._pid_only(q, dls, e[:m], de)
+            cmd, log = self._pid_only(q, qd, states, dls, e[:m], de)
         else:
-            cmd, log = self._cascade(q, qd, dP, ref, dls, e[:m], de)
+            cmd, log = self._cascade(q, qd, states, ref, dls, e[:m], de)
         self._record(t, ref, p, R, e, log, cmd)
         return cmd
 
-    def _cascade(self, q: np.ndarray, qd: np.ndarray, dP: np.ndarray, ref: Any,
+    def _cascade(self, q: np.ndarray, qd: np.ndarray, states: dict[str, np.ndarray], ref: Any,
                  dls: DampedLeastSquares, e: np.ndarray, de: np.ndarray
                  ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-        m, act, h = len(self.rows), self.act, self._h
+        m = len(self.rows)
         a_x = ref.accel[:m] + self.outer.update(e, de, freeze=self._saturated)
         rhs = np.empty((m, 3))
         rhs[:, 0] = a_x - self.kin.bias_acceleration(q, qd)[:m]
@@ -194,31 +193,37 @@ class CascadeController:
         if self._redundant:  # null-space damping: (I - J⁺J) q̇ = q̇ - J⁺(J q̇)
             qdd = qdd - self.gains.null_damping * (qd - sol[:, 2])
         tau = self.g1.torque(q, qd, qdd, qd_ref)
-        cmd = np.clip(tau, -act.torque_limit, act.torque_limit) if self._torque.size else tau.copy()
-        dP_d, phi = self._nan_n.copy(), self._nan_n.copy()
-        if self._has_h:
-            dPd_h = tau[h] / self._area
-            dP_h = dP[h]
-            phi_h = self.pressure.flow(dPd_h, dP_h, qd[h], qd_ref[h])
-            cmd[h] = valve_current(phi_h, dP_h, self._cv, self._ps, self._imax,
-                                   min_root=self.gains.valve_min_root)
-            dP_d[h], phi[h] = dPd_h, phi_h
+        cmd = np.empty(self.n)
+        log: dict[str, np.ndarray] = {}
+        for drive in self.drives:
+            j = drive.joints
+            cmd[j] = drive.command(tau[j], q[j], qd[j], qd_ref[j],
+                                   {k: v[j] for k, v in states.items()})
+            for name, values in drive.log.items():
+                log.setdefault(name, self._nan_n.copy())[j] = values
         self._saturated = bool((np.abs(cmd) >= self._limit).any())
         a_full = self._nan_6.copy()
         a_full[:m] = a_x
-        return cmd, {"a_x": a_full, "qdd_d": qdd, "tau_d": tau, "dP_d": dP_d, "phi": phi}
+        return cmd, {"a_x": a_full, "qdd_d": qdd, "tau_d": tau, **log}
 
-    def _pid_only(self, q: np.ndarray, dls: DampedLeastSquares, e: np.ndarray, de: np.ndarray
+    def _pid_only(self, q: np.ndarray, qd: np.ndarray, states: dict[str, np.ndarray],
+                  dls: DampedLeastSquares, e: np.ndarray, de: np.ndarray
                   ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-        act = self.act
         sol = dls.solve(np.stack([e, de], axis=1))
-        u = self.joint_pid.update(sol[:, 0], sol[:, 1])
-        iv = np.clip(u * act.area / act.valve_gain, -act.current_limit, act.current_limit)
-        inertia = np.diagonal(self.model.M(q)) if not act.hydraulic.all() else 1.0
-        tau = np.clip(u * inertia, -act.torque_limit, act.torque_limit)
-        cmd = np.where(act.hydraulic, iv, tau)
+        u = self.joint_pid.update(sol[:, 0], sol[:, 1])  # joint speeds
+        cmd = np.empty(self.n)
+        inertia = None
+        for drive in self.drives:
+            j = drive.joints
+            speed = drive.speed_command(u[j])
+            if speed is None:  # not speed-controlled: the speed times the joint's inertia
+                inertia = np.diagonal(self.model.M(q)) if inertia is None else inertia
+                speed = drive.command(u[j] * inertia[j], q[j], qd[j], qd[j],
+                                      {k: v[j] for k, v in states.items()})
+            cmd[j] = speed
         nan6, nan = np.full(6, np.nan), np.full(self.n, np.nan)
-        return cmd, {"a_x": nan6, "qdd_d": nan, "tau_d": nan, "dP_d": nan, "phi": nan}
+        return cmd, {"a_x": nan6, "qdd_d": nan, "tau_d": nan,
+                     **{k: nan for d in self.drives for k in d.signals}}
 
     # --- the log -----------------------------------------------------------------------------
     def _record(self, t: float, ref: Any, p: np.ndarray, R: np.ndarray, e: np.ndarray,
@@ -228,8 +233,9 @@ class CascadeController:
         L["x_d"].append((ref.position, ref.rotation))
         L["x"].append((p, R))
         L["e_x"].append(e)
-        for k, v in log.items():
-            L[k].append(v)
+        for k in self.log_signals:
+            if k not in ("x_d", "x", "e_x", "cmd"):
+                L[k].append(log.get(k))
         L["cmd"].append(cmd.copy())
 
     @property
@@ -241,6 +247,7 @@ class CascadeController:
         """The logged signals (see ``LOG_SIGNALS``), name -> array (K, k), one row per sample."""
         n = self.n
         width = {"x_d": 6, "x": 6, "e_x": 6, "a_x": 6}
+        nan = np.full(n, np.nan)
         out = {}
         for k, v in self._log.items():
             if k == "t":
@@ -250,7 +257,7 @@ class CascadeController:
             elif k in ("x_d", "x"):  # stored as (p, R): written as [x, y, z, roll, pitch, yaw]
                 out[k] = np.array([np.concatenate([p, matrix_to_rpy(R)]) for p, R in v])
             else:
-                out[k] = np.stack(v)
+                out[k] = np.stack([nan if x is None else x for x in v])
         return out
 
     def signals_at(self, t: np.ndarray) -> dict[str, np.ndarray]:
@@ -290,6 +297,17 @@ class CascadeController:
             raise ValueError(f"the run already has signals {clash}")
         meta = {**dict(run.meta), "control": self.settings()}
         return type(run)(t=run.t, signals={**run.signals, **extra}, spec=run.spec, meta=meta)
+
+
+def _drives(actuators: list[ActuatorPlugin], *, dt: float,
+            settings: ControlSpec) -> list[ForceDrive]:
+    """One drive per actuator class, over the joints that have it (CapabilityError, naming the
+    joints, where a class cannot be driven)."""
+    groups: dict[type[ActuatorPlugin], list[int]] = {}
+    for j, a in enumerate(actuators):
+        groups.setdefault(type(a), []).append(j)
+    return [cls.drive([actuators[j] for j in joints], joints, dt=dt, settings=settings)
+            for cls, joints in groups.items()]
 
 
 def _plain(value: Any) -> Any:

@@ -1,7 +1,8 @@
-"""G1: inverse dynamics from the analytic model, and the domain transformation to ΔP_d.
+"""G1: inverse dynamics from the analytic model.
 
-τ_d = M(q) q̈_d + C(q, q̇) q̇ + G(q) + Fv q̇ (+ optional Coulomb feed-forward), then per joint
-ΔP_d = τ_d / A at a hydraulic joint (joint force = A ΔP, eq. 4); a torque joint gets τ_d itself.
+τ_d = M(q) q̈_d + C(q, q̇) q̇ + G(q) + Fv q̇ (+ optional Coulomb feed-forward); each joint's
+actuator drive then turns τ_d into its command (e.g. ΔP_d = τ_d / A on a hydraulic joint, see
+:mod:`maniplab.actuators.hydraulic.drive`).
 """
 
 from __future__ import annotations
@@ -10,7 +11,6 @@ from typing import Any
 
 import numpy as np
 
-from maniplab.control.actuation import ActuatorArrays
 from maniplab.model import AnalyticModel
 
 ArrayLike = Any
@@ -49,8 +49,3 @@ class InverseDynamics:
             v = np.asarray(qd if qd_ref is None else qd_ref, dtype=float)
             tau += self.fc * np.tanh(v / self.vs)
         return tau
-
-
-def to_pressure(tau: ArrayLike, actuators: ActuatorArrays) -> np.ndarray:
-    """Domain transformation: ΔP_d = τ / A at hydraulic joints (Pa), NaN at torque joints, (n,)."""
-    return np.where(actuators.hydraulic, np.asarray(tau, dtype=float) / actuators.area, np.nan)

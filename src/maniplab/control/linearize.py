@@ -1,18 +1,19 @@
-"""Linearisation of the plant (rigid body + eq. 4 hydraulics) around an operating point.
+"""Linearisation of the plant (rigid body + the actuators' models) around an operating point.
 
-State x = [q (n); q̇ (n); ΔP (h); Q (h)] over the n joints and the h hydraulic joints, input
-u = [i_v at hydraulic joints | force at torque joints] in joint order, output
-y = [q (n); end-effector position (3)]. The nonlinear plant is
+State x = [q (n); q̇ (n); the actuator states], the actuator states grouped by name in the order
+the arm first has them (a hydraulic arm: ΔP of each cylinder, then Q of each); input u = each
+joint's command (valve current, force, a plugin's command); output y = [q (n); end-effector
+position (3)]. The nonlinear plant is
 
-    M(q) q̈ = τ(ΔP, u) - C(q, q̇) q̇ - G(q) - F(q̇)         τ = A ΔP (hydraulic) or u (torque)
-    dΔP/dt = (E/V)(Q - Le ΔP - A q̇)
-    dQ/dt  = (i_v C sqrt(1 - |ΔP|/Ps) - Q) / τ_v
+    M(q) q̈ = τ(x_a, u, q, q̇) - C(q, q̇) q̇ - G(q) - F(q̇)     τ_j = force_j of joint j's actuator
+    ẋ_a = derivatives of each actuator's model (e.g. eq. 4 for a cylinder)
 
 with F the joints' slip friction: viscous Fv q̇ plus, for a joint that moves (q̇ ≠ 0, hybrid or
 LuGre model), the Coulomb/Stribeck part sign(q̇)(Fc + Fs exp(-(q̇/vs)²)), whose slope enters the
 linear model. At rest the Coulomb part is left out (it is discontinuous there: a real joint at
-rest sticks, which no linear model represents). The Jacobian entries of the hydraulics and of
-q̇ are exact; ∂q̈/∂q is a central difference of the analytic model's forward dynamics;
+rest sticks, which no linear model represents). The actuators' partial derivatives are their own
+(:meth:`~maniplab.actuators.ActuatorPlugin.jacobians`: exact for the built-ins, central
+differences otherwise); ∂q̈/∂q is a central difference of the analytic model's forward dynamics;
 ∂(C q̇)/∂q̇ = 2 C (Christoffel form).
 """
 
@@ -22,37 +23,60 @@ from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
-from maniplab.control.actuation import ActuatorArrays
+from maniplab.actuators import ActuatorPlugin
+from maniplab.actuators.base import STANDARD_STATES
+from maniplab.errors import ManiplabError
 from maniplab.model import AnalyticModel
-from maniplab.spec import ManipulatorSpec
+from maniplab.spec import ManipulatorSpec, model_of
 
-ArrayLike = Any
+
+class LinearizeError(ManiplabError, ValueError):
+    """An operating point is malformed, or no actuator state holds it."""
+
+
+def _states(actuators: list[ActuatorPlugin]) -> list[tuple[str, list[int]]]:
+    """The actuator states as the linear model orders them: (name, joints that have it)."""
+    order: dict[str, list[int]] = {}
+    for j, a in enumerate(actuators):
+        for name in a.states:
+            order.setdefault(name, []).append(j)
+    return list(order.items())
 
 
 def operating_point(spec: ManipulatorSpec, q: ArrayLike, qd: ArrayLike | None = None, *,
                     model: AnalyticModel | None = None) -> dict[str, np.ndarray]:
-    """A steady operating point at q (and constant q̇): pressures that balance the arm, steady flows.
+    """A steady operating point at q (and constant q̇): actuator states that balance the arm.
 
-    ΔP = (G(q) + C(q, q̇) q̇ + F(q̇)) / A at hydraulic joints, Q = A q̇ + Le ΔP, and the input
-    that holds it: i_v = Q / (C sqrt(1 - |ΔP|/Ps)), or the force at torque joints. q̈ = 0 there
-    only when q̇ = 0 (a moving arm's bias changes with q).
+    Each joint's actuator exerts τ = G(q) + C(q, q̇) q̇ + F(q̇) in its steady state
+    (:meth:`~maniplab.actuators.ActuatorPlugin.steady`: a cylinder's ΔP = τ/A, Q = A q̇ + Le ΔP,
+    i_v = Q / (C sqrt(1 - |ΔP|/Ps)); a torque joint's command is τ). q̈ = 0 there only when
+    q̇ = 0 (a moving arm's bias changes with q).
 
     Returns:
-        {"q", "qd", "dP", "Q", "u"}, each shape (n,) (NaN at joints without the element).
+        {"q", "qd", "u", ``dP``, ``Q`` and each actuator state by name}, each shape (n,)
+        (NaN at joints without the state).
+
+    Raises:
+        LinearizeError: an actuator with states declares no steady state.
     """
     model = model or AnalyticModel(spec)
-    act = ActuatorArrays.from_spec(spec)
+    actuators = [model_of(j) for j in spec.joints]
     q = np.asarray(q, dtype=float)
     qd = np.zeros(spec.n) if qd is None else np.asarray(qd, dtype=float)
     tau = model.bias(q, qd) + _friction(spec, qd)[0]
-    h = act.hydraulic
-    dP = np.where(h, tau / act.area, np.nan)
-    Q = np.where(h, act.area * qd + act.leakage * dP, np.nan)
-    root = np.sqrt(np.maximum(1.0 - np.abs(dP) / act.supply_pressure, 0.0))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        u = np.where(h, Q / (act.valve_gain * root), tau)
-    return {"q": q, "qd": qd, "dP": dP, "Q": Q, "u": u}
+    point = {"q": q, "qd": qd, "u": np.zeros(spec.n)}
+    for name in (*STANDARD_STATES, *(name for name, _ in _states(actuators))):
+        point[name] = np.full(spec.n, np.nan)
+    for j, a in enumerate(actuators):
+        if not a.has_steady():
+            raise LinearizeError(f"joint {a.joint.name}: {a.label()} declares no steady state "
+                                 "(ActuatorPlugin.steady), so no operating point holds it")
+        x, point["u"][j] = a.steady(float(tau[j]), float(q[j]), float(qd[j]))
+        for name, value in zip(a.states, x):
+            point[name][j] = value
+    return point
 
 
 def _friction(spec: ManipulatorSpec, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -71,13 +95,12 @@ def _friction(spec: ManipulatorSpec, qd: np.ndarray) -> tuple[np.ndarray, np.nda
 
 def names(spec: ManipulatorSpec) -> dict[str, list[str]]:
     """State, input and output names of :func:`linearize`'s system."""
-    act = ActuatorArrays.from_spec(spec)
+    actuators = [model_of(j) for j in spec.joints]
     joints = spec.joint_names
-    hyd = [j for j, h in zip(joints, act.hydraulic) if h]
+    states = [f"{joints[j]}_{name}" for name, which in _states(actuators) for j in which]
     return {
-        "states": [f"{j}" for j in joints] + [f"{j}_dot" for j in joints]
-        + [f"{j}_dP" for j in hyd] + [f"{j}_Q" for j in hyd],
-        "inputs": [f"{j}_iv" if h else f"{j}_tau" for j, h in zip(joints, act.hydraulic)],
+        "states": list(joints) + [f"{j}_dot" for j in joints] + states,
+        "inputs": [f"{j}_{a.command}" for j, a in zip(joints, actuators)],
         "outputs": list(joints) + ["ee_x", "ee_y", "ee_z"],
     }
 
@@ -87,23 +110,32 @@ def jacobians(spec: ManipulatorSpec, point: Mapping[str, ArrayLike], *,
               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(A, B, C, D) of the plant linearised at ``point`` (see :func:`linearize`)."""
     model = model or AnalyticModel(spec)
-    act = ActuatorArrays.from_spec(spec)
-    n, hi = spec.n, np.flatnonzero(act.hydraulic)
-    h = len(hi)
+    actuators = [model_of(j) for j in spec.joints]
+    n = spec.n
     q = np.asarray(point["q"], dtype=float)
     qd = np.asarray(point.get("qd", np.zeros(n)), dtype=float)
-    dP = np.asarray(point["dP"], dtype=float)
     u = np.asarray(point["u"], dtype=float)
-    tau = np.where(act.hydraulic, act.area * np.nan_to_num(dP), u)
+    index = {}  # (joint, state name) -> row of x
+    row = 2 * n
+    for name, which in _states(actuators):
+        for j in which:
+            index[j, name] = row
+            row += 1
+    nx = row
+    xs = [np.array([float(np.asarray(point[s])[j]) for s in a.states])
+          for j, a in enumerate(actuators)]
+    parts = [a.jacobians(x, float(u[j]), float(q[j]), float(qd[j]))
+             for j, (a, x) in enumerate(zip(actuators, xs))]
+    tau = np.array([a.force(x, float(u[j]), float(q[j]), float(qd[j]))
+                    for j, (a, x) in enumerate(zip(actuators, xs))])
     fric, slope = _friction(spec, qd)
 
     def qdd(qq: np.ndarray) -> np.ndarray:
         return model.forward_dynamics(qq, qd, tau - fric)
 
-    nx = 2 * n + 2 * h
     A = np.zeros((nx, nx))
     B = np.zeros((nx, n))
-    iq, iv, ip, iQ = slice(0, n), slice(n, 2 * n), slice(2 * n, 2 * n + h), slice(2 * n + h, nx)
+    iq, iv = slice(0, n), slice(n, 2 * n)
     A[iq, iv] = np.eye(n)
     for k in range(n):  # ∂q̈/∂q by central differences of the model's forward dynamics
         e = np.zeros(n)
@@ -111,22 +143,18 @@ def jacobians(spec: ManipulatorSpec, point: Mapping[str, ArrayLike], *,
         A[iv, k] = (qdd(q + e) - qdd(q - e)) / (2.0 * fd_step)
     Minv = np.linalg.inv(model.M(q))
     A[iv, iv] = -Minv @ (2.0 * model.C(q, qd) + np.diag(slope))
-    A[iv, ip] = Minv[:, hi] * act.area[hi]
-    torque = np.flatnonzero(~act.hydraulic)
-    B[iv, torque] = Minv[:, torque]
-    cap = act.bulk_modulus[hi] / act.volume[hi]
-    hrows = np.arange(h)
-    A[2 * n + hrows, n + hi] = -cap * act.area[hi]
-    A[2 * n + hrows, 2 * n + hrows] = -cap * act.leakage[hi]
-    A[2 * n + hrows, 2 * n + h + hrows] = cap
-    Ps, tau_v, C = act.supply_pressure[hi], act.valve_tau[hi], act.valve_gain[hi]
-    p = dP[hi]
-    root = np.sqrt(np.maximum(1.0 - np.abs(p) / Ps, 0.0))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        droot = np.where(root > 0.0, -np.sign(p) / (2.0 * Ps * root), 0.0)
-    A[2 * n + h + hrows, 2 * n + hrows] = u[hi] * C * droot / tau_v
-    A[2 * n + h + hrows, 2 * n + h + hrows] = -1.0 / tau_v
-    B[2 * n + h + hrows, hi] = C * root / tau_v
+    for j, (a, J) in enumerate(zip(actuators, parts)):
+        rows = [index[j, s] for s in a.states]
+        A[iv, j] += Minv[:, j] * J.df_dq
+        A[iv, n + j] += Minv[:, j] * J.df_dv
+        B[iv, j] = Minv[:, j] * J.df_du
+        for r, dfx in zip(rows, J.df_dx):
+            A[iv, r] += Minv[:, j] * dfx
+        for i, r in enumerate(rows):
+            A[r, j] = J.dxdot_dq[i]
+            A[r, n + j] = J.dxdot_dv[i]
+            A[r, rows] = J.dxdot_dx[i]
+            B[r, j] = J.dxdot_du[i]
     Cmat = np.zeros((n + 3, nx))
     Cmat[:n, :n] = np.eye(n)
     Cmat[n:, :n] = model.jacobian(q)[:3]
@@ -141,24 +169,26 @@ def linearize(spec: ManipulatorSpec, operating_point_: ArrayLike | Mapping[str, 
         spec: the arm.
         operating_point_: joint positions q (n,) (the arm is then at rest, its pressures
             balancing it, see :func:`operating_point`), or a mapping with ``q`` and any of
-            ``qd``, ``dP``, ``Q``, ``u`` (missing ones are filled in as by
-            :func:`operating_point`).
+            ``qd``, ``u`` and the actuator states (``dP``, ``Q``, ...) (missing ones are filled
+            in as by :func:`operating_point`).
         model: a ready analytic model of ``spec``.
 
     Returns:
-        ``control.StateSpace`` with states ``q1, …, q1_dot, …, q1_dP, …, q1_Q, …`` (ΔP and Q of
-        the hydraulic joints only), inputs ``q1_iv`` (valve current, A) or ``q1_tau`` (force),
-        outputs ``q1, …`` and ``ee_x, ee_y, ee_z`` (end-effector position, m). SI units.
+        ``control.StateSpace`` with states ``q1, …, q1_dot, …`` and the actuator states
+        ``<joint>_<state>`` (``q1_dP, …, q1_Q, …`` on a hydraulic arm), inputs
+        ``<joint>_<command>`` (``q1_iv``: valve current, A; ``q1_tau``: force), outputs
+        ``q1, …`` and ``ee_x, ee_y, ee_z`` (end-effector position, m). SI units.
     """
     import control  # python-control
 
     model = model or AnalyticModel(spec)
     if isinstance(operating_point_, Mapping):
         given = {k: np.asarray(v, dtype=float) for k, v in operating_point_.items()}
-        unknown = set(given) - {"q", "qd", "dP", "Q", "u"}
+        states = [name for name, _ in _states([model_of(j) for j in spec.joints])]
+        unknown = set(given) - {"q", "qd", "u", *states}
         if unknown or "q" not in given:
-            raise ValueError(f"operating point keys must include 'q' and be among q, qd, dP, Q, u; "
-                             f"got {sorted(given)}")
+            raise LinearizeError(f"operating point keys must include 'q' and be among q, qd, u "
+                                 f"and the actuator states {', '.join(states)}; got {sorted(given)}")
         point = {**operating_point(spec, given["q"], given.get("qd"), model=model), **given}
     else:
         point = operating_point(spec, operating_point_, model=model)

@@ -18,6 +18,7 @@ import numpy as np
 from maniplab.control.kinematics import rotation_log
 from maniplab.control.trajectory import Trajectory
 from maniplab.model import AnalyticModel
+from maniplab.spec import model_of
 
 #: Columns of the table: field -> (header, format).
 COLUMNS: dict[str, tuple[str, str]] = {
@@ -136,10 +137,9 @@ def saturation_time(run: Any) -> float:
     A sample's command is held until the next sample; a hydraulic joint saturates at its
     ``current_limit``, a torque joint at its ``limit`` (never when it has none).
     """
-    from maniplab.control.actuation import ActuatorArrays
-
     ctrl = np.asarray(run["ctrl"])
-    limit = ActuatorArrays.from_spec(run.spec).command_limit
+    limit = np.array([np.inf if (lim := model_of(j).command_limit) is None else lim
+                      for j in run.spec.joints])
     at = (np.abs(ctrl) >= limit * (1.0 - 1e-9)).any(axis=1)
     t = np.asarray(run.t)
     if len(t) < 2:

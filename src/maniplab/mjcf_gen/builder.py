@@ -10,10 +10,11 @@
   base axes); all bodies keep the base orientation (identity quaternions);
 - the end-effector is a fixed body ``end_effector`` (no joint) on the last link at
   ``length_n * direction_n + offset`` holding the payload as a point mass;
-- one actuator per joint named after it: a force/torque source (gain 1, ``ctrlrange`` ±limit) for
-  ``torque`` joints; for hydraulic ones an actuator with ``user`` dynamics and two activation
-  states (ΔP, Q) but zero gain and no bias, which is inert in a plain MuJoCo tool (no force, the
-  states kept as they are): the plant (:mod:`maniplab.sim`) gives it its force law at run time.
+- one actuator per joint named after it, as the joint's actuator model declares it
+  (:meth:`~maniplab.actuators.ActuatorPlugin.configure_mjcf`): MuJoCo's motor for a ``torque``
+  joint; for a hydraulic one an actuator with ``user`` dynamics and two activation states (ΔP, Q)
+  but zero gain and no bias, which is inert in a plain MuJoCo tool (no force, the states kept as
+  they are): the plant (:mod:`maniplab.sim`) gives it its force law at run time.
 
 Compiler choices, all written to the MJCF:
 
@@ -38,15 +39,7 @@ import numpy as np
 from maniplab.builtin import resolve_spec
 from maniplab.mjcb import suspended
 from maniplab.mjcf_gen import checks, names, visuals
-from maniplab.spec import (
-    Body,
-    EndEffector,
-    HydraulicActuator,
-    Joint,
-    ManipulatorSpec,
-    PluginActuator,
-    inertia_matrix,
-)
+from maniplab.spec import Body, EndEffector, Joint, ManipulatorSpec, inertia_matrix, model_of
 
 MASS_BOUND = 1e-12
 """``compiler.boundmass`` and ``boundinertia``: kg and kg·m²."""
@@ -56,9 +49,6 @@ TIMESTEP = 1e-3
 
 INTEGRATOR = mujoco.mjtIntegrator.mjINT_RK4
 """Default ``option.integrator``."""
-
-HYDRAULIC_STATES = 2
-"""Activation states of a hydraulic actuator: ΔP (Pa) and Q (m³/s), in that order."""
 
 _TRIANGLE_MARGIN = 1e-12  # relative; MuJoCo's own eigen-solver errs by ~1e-15
 
@@ -194,50 +184,7 @@ def _add_end_effector(parent: mujoco.MjsBody, ee: EndEffector, at: np.ndarray) -
 
 
 def _add_actuator(s: mujoco.MjSpec, joint: Joint) -> None:
-    """Actuator named after ``joint``; a hydraulic one holds ΔP and Q and applies no force.
-
-    A hydraulic actuator gets ``user`` dynamics with its two states, a fixed zero gain and no
-    bias. In a MuJoCo tool without maniplab's callbacks it is inert: MuJoCo's user dynamics leave
-    the states as they are without an ``mjcb_act_dyn``, and the force, gain × (the last state) +
-    bias, is zero. (A ``user`` gain would not be: without an ``mjcb_act_gain`` MuJoCo takes it as
-    1, and the actuator would push with its valve flow Q in m³/s as a force.) The plant
-    (:mod:`maniplab.sim.plant_model`) gives it the force law of eq. (4) at run time.
-    """
+    """The actuator named after ``joint``, as its actuator model declares it
+    (:meth:`~maniplab.actuators.ActuatorPlugin.configure_mjcf`)."""
     act = s.add_actuator(name=joint.name, target=joint.name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
-    spec = joint.actuator
-    limit: float | None
-    if isinstance(spec, HydraulicActuator):
-        act.dyntype = mujoco.mjtDyn.mjDYN_USER
-        act.gaintype = mujoco.mjtGain.mjGAIN_FIXED
-        act.gainprm = [0.0] * 10
-        act.biastype = mujoco.mjtBias.mjBIAS_NONE
-        act.actdim = HYDRAULIC_STATES
-        act.actlimited = mujoco.mjtLimited.mjLIMITED_FALSE
-        limit = spec.current_limit
-    elif isinstance(spec, PluginActuator):
-        limit = _plugin_actuator(act, spec, joint)
-    else:
-        limit = spec.limit
-    if limit is None:
-        act.ctrllimited = mujoco.mjtLimited.mjLIMITED_FALSE
-    else:
-        act.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
-        act.ctrlrange = [-limit, limit]
-
-
-def _plugin_actuator(act: mujoco.MjsActuator, spec: PluginActuator, joint: Joint) -> float | None:
-    """A plugin's actuator: one user activation per plugin state, zero gain, user bias (its force).
-
-    Without the plant's callbacks MuJoCo leaves the states constant and applies no force.
-    Returns the plugin's command limit.
-    """
-    model = spec.plugin(spec.params, joint)
-    k = len(model.states)
-    if k:
-        act.dyntype = mujoco.mjtDyn.mjDYN_USER
-        act.actdim = k
-        act.actlimited = mujoco.mjtLimited.mjLIMITED_FALSE
-    act.gaintype = mujoco.mjtGain.mjGAIN_FIXED
-    act.gainprm = [0.0] * 10
-    act.biastype = mujoco.mjtBias.mjBIAS_USER
-    return model.command_limit
+    model_of(joint).configure_mjcf(act)

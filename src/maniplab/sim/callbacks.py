@@ -18,21 +18,33 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Sequence
+from typing import Protocol
 
 import mujoco
 import numpy as np
 
-from maniplab.actuators.plugin import ActuatorPlugin
 from maniplab.mjcb import installed, suspended
 from maniplab.sim.errors import PluginError
 
-__all__ = ["PluginCallbacks", "installed", "suspended"]
+__all__ = ["Integrated", "PluginCallbacks", "installed", "suspended"]
+
+
+class Integrated(Protocol):
+    """What MuJoCo integrates through the callbacks: an actuator model (or LuGre's bristles)."""
+
+    @property
+    def states(self) -> tuple[str, ...]: ...
+
+    def derivatives(self, x: np.ndarray, u: float, q: float, v: float) -> np.ndarray: ...
+
+    def force(self, x: np.ndarray, u: float, q: float, v: float) -> float: ...
 
 
 @dataclasses.dataclass(frozen=True)
 class _Entry:
-    plugin: ActuatorPlugin
+    plugin: Integrated
     joint: int      # qpos/qvel index of the joint (one dof per joint)
+    name: str       # the joint's name
     adr: int        # first activation
     k: int          # number of activations
 
@@ -42,15 +54,16 @@ class PluginCallbacks:
 
     Args:
         model, data: the plant's.
-        actuators: (actuator id, plugin, joint index) for each callback-route actuator.
+        actuators: (actuator id, model, joint index) for each callback-route actuator.
     """
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData,
-                 actuators: Sequence[tuple[int, ActuatorPlugin, int]]) -> None:
+                 actuators: Sequence[tuple[int, Integrated, int]]) -> None:
         self.model = model
         self.data = data
         self._entries = {
-            i: _Entry(p, j, int(model.actuator_actadr[i]), int(model.actuator_actnum[i]))
+            i: _Entry(p, j, model.joint(j).name, int(model.actuator_actadr[i]),
+                      int(model.actuator_actnum[i]))
             for i, p, j in actuators
         }
 
@@ -92,7 +105,7 @@ class PluginCallbacks:
     @staticmethod
     def _failure(e: _Entry, method: str, exc: Exception, t: float) -> PluginError:
         return PluginError(
-            f"actuator plugin {_name(e)} of joint {e.plugin.joint.name} failed in {method}() at "
+            f"actuator plugin {_name(e)} of joint {e.name} failed in {method}() at "
             f"t = {t:.6g} s: {type(exc).__name__}: {exc}"
         )
 

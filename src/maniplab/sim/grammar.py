@@ -22,7 +22,7 @@ from typing import Any
 
 from maniplab.errors import ManiplabError
 from maniplab.sim import signals
-from maniplab.specfile import parse_yaml
+from maniplab.spec.yaml_io import parse_yaml
 
 #: signal kind -> (constructor, its value arguments in order, how many are required)
 _KINDS: dict[str, tuple[Any, tuple[str, ...], int]] = {

@@ -13,8 +13,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from maniplab.actuators.hydraulic import HydraulicCylinder
-from maniplab.actuators.torque import TorqueSource
+from maniplab.actuators.base import STANDARD_COMMANDS, STANDARD_STATES
 from maniplab.builtin import resolve_spec
 from maniplab.mjcf_gen.names import END_EFFECTOR
 from maniplab.progress import Progress
@@ -221,7 +220,8 @@ def _call(controller: Controller, t: float, plant: Plant) -> list[float]:
 
 
 class _Recorder:
-    """Collects samples as Python lists (cheaper per step than numpy rows) and builds arrays."""
+    """Collects what the plant publishes each step (:class:`~maniplab.sim.plant.StepRecord`) as
+    Python lists (cheaper per step than numpy rows) and builds the Run's arrays."""
 
     def __init__(self, plant: Plant) -> None:
         self.plant = plant
@@ -235,18 +235,21 @@ class _Recorder:
         self._limit: list[list[float]] = []
 
     def state(self, t: float) -> None:
-        p = self.plant
+        """Record the prepared step's start."""
+        r = self.plant.record
         self._t.append(t)
-        self._q.append(p._q0)
-        self._qd.append(p._v0)
-        self._act.append(p._act0)
-        self._ctrl.append(p._u)
-        self._mode.append(list(p._modes))
+        self._q.append(r.q)
+        self._qd.append(r.qd)
+        self._act.append(r.act)
+        self._ctrl.append(r.u)
+        self._mode.append(r.mode)
 
     def forces(self) -> None:
+        """Record the forces of the last advanced step for the samples that lack them."""
+        r = self.plant.record
         while len(self._fric) < len(self._t):
-            self._fric.append(self.plant._tau_applied)
-            self._limit.append(self.plant._tau_limit)
+            self._fric.append(r.fric)
+            self._limit.append(r.limit)
 
     def times(self) -> np.ndarray:
         return np.array(self._t)
@@ -256,38 +259,19 @@ class _Recorder:
         q, qd, ctrl = _matrix(self._q, p.n), _matrix(self._qd, p.n), _matrix(self._ctrl, p.n)
         act = _matrix(self._act, p.model.na)
         out: dict[str, np.ndarray] = {"q": q, "qd": qd}
-        for name in ("dP", "Q", "z", *p.state_names):
-            full = np.full((len(self._t), p.n), np.nan)
-            if name in p.state_layout:
-                joints, adrs = p.state_layout[name]
-                full[:, joints] = act[:, adrs]
-            if name in ("dP", "Q") or name in p.state_layout:
-                out[name] = full
-        hydraulic = [isinstance(a, HydraulicCylinder) for a in p.actuators]
+        nan = np.full((len(self._t), p.n), np.nan)
+        out.update({name: nan.copy() for name in STANDARD_STATES})
+        out.update(p.layout.read(act))
         out["ctrl"] = ctrl
-        out["iv"] = np.where(hydraulic, ctrl, np.nan)
-        out["tau_act"] = self._actuator_forces(q, qd, act, ctrl)
+        for name in dict.fromkeys((*STANDARD_COMMANDS, *(a.command for a in p.actuators))):
+            mine = [a.command == name for a in p.actuators]
+            out[name] = np.where(mine, ctrl, np.nan)
+        out["tau_act"] = p.actuator_forces_at(q, qd, act, ctrl)
         out["tau_fric"] = _matrix(self._fric, p.n) - p.viscous * qd  # applied + viscous at t_k
         out["tau_limit"] = _matrix(self._limit, p.n)
         out["mode"] = _matrix(self._mode, p.n).astype(np.int8)
         out["ee_pos"] = _end_effector(p.model, q)
         return out
-
-    def _actuator_forces(self, q: np.ndarray, qd: np.ndarray, act: np.ndarray,
-                         ctrl: np.ndarray) -> np.ndarray:
-        p = self.plant
-        tau = np.zeros_like(q)
-        for i, a in enumerate(p.actuators):
-            adr, k = int(p.model.actuator_actadr[i]), len(a.states)
-            if isinstance(a, HydraulicCylinder):
-                tau[:, i] = a.params.area * act[:, adr]
-            elif isinstance(a, TorqueSource):
-                tau[:, i] = ctrl[:, i]
-            else:
-                for r in range(len(q)):
-                    x = act[r, adr:adr + k] if k else np.zeros(0)
-                    tau[r, i] = a.force(x, ctrl[r, i], q[r, i], qd[r, i])
-        return tau
 
 
 def _matrix(rows: list, width: int) -> np.ndarray:

@@ -8,7 +8,7 @@ Runs compared in one video each get a colour for their ghost, caption, curve and
 
 from __future__ import annotations
 
-from maniplab.actuators.modes import FrictionMode
+from maniplab.friction.modes import FrictionMode
 
 RGBA = tuple[float, float, float, float]
 

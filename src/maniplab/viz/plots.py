@@ -15,9 +15,9 @@ import matplotlib
 import numpy as np
 from matplotlib.figure import Figure
 
-from maniplab.actuators.modes import FrictionMode
 from maniplab.atomic import atomic_path
 from maniplab.errors import ManiplabError
+from maniplab.friction.modes import FrictionMode
 from maniplab.sim import params
 from maniplab.sim.run import Run
 

@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from maniplab.actuators.modes import FrictionMode
+from maniplab.friction.modes import FrictionMode
 from maniplab.sim.run import Run
 from maniplab.spec import ManipulatorSpec
 from maniplab.viz.gl import RenderError

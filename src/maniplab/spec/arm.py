@@ -1,6 +1,6 @@
 """The manipulator spec: frozen, validated dataclasses describing one serial arm, base to tip.
 
-A spec is usually read from YAML (:func:`load_spec`, see ``specfile``) or taken from the built-in
+A spec is usually read from YAML (:func:`~maniplab.spec.files.load_spec`) or taken from the built-in
 library (:func:`builtin_spec`). All frames coincide in orientation with the base frame at q = 0, so
 axes, directions, centres of gravity and inertias are written in base axes. Units are SI.
 
@@ -42,84 +42,45 @@ from __future__ import annotations
 
 import dataclasses
 import enum
-import functools
 import math
+import os
 from collections.abc import Mapping
-from typing import Annotated, Any, Literal, Union
+from pathlib import Path
+from typing import Annotated, Any, ClassVar
 
 import numpy as np
 from pydantic import (
     AfterValidator,
     BeforeValidator,
-    ConfigDict,
-    Discriminator,
     Field,
     Strict,
-    Tag,
+    TypeAdapter,
     ValidationError,
     field_validator,
 )
-from pydantic.dataclasses import dataclass as _pydantic_dataclass
-from pydantic_core import PydanticCustomError
 
+from maniplab.actuators.torque import TorqueActuator
 from maniplab.errors import SpecError
+from maniplab.friction.params import Friction
+from maniplab.atomic import write_text
+from maniplab.schema import (
+    NonNegative,
+    Positive,
+    Real,
+    Vec3,
+    describe,
+    plain,
+    sequence,
+    translate_errors,
+    validated,
+)
+from maniplab.schema.translate import INTERNAL, line_of, unknown_key_problem
+from maniplab.spec import overrides as _overrides
+from maniplab.spec.actuator import Actuator, actuator_dict
+from maniplab.spec.control import ControlSpec
+from maniplab.spec.yaml_io import Loc, dump_yaml
 
-_CONFIG = ConfigDict(extra="forbid", allow_inf_nan=False)
 _NAME_PATTERN = r"^[A-Za-z_][A-Za-z0-9_\-]*$"
-
-
-
-def _number(value: Any) -> Any:
-    """Accept numpy scalars as floats; reject integers too large for a float."""
-    if isinstance(value, (bool, np.bool_)):
-        return value  # rejected by the strict float schema: True is not a number
-    if isinstance(value, (np.integer, np.floating)):
-        return float(value)
-    if isinstance(value, int):
-        try:
-            return float(value)
-        except OverflowError:
-            raise PydanticCustomError(
-                "finite_number", "Input should be a finite number"
-            ) from None
-    return value
-
-
-def _sequence(value: Any) -> Any:
-    """Accept lists, tuples and numpy arrays as vectors; reject sets, mappings, text, generators."""
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, (list, tuple)):
-        return value
-    raise PydanticCustomError("tuple_type", "Input should be a valid list")
-
-
-Real = Annotated[float, Strict(), BeforeValidator(_number)]
-NonNegative = Annotated[float, Strict(), Field(ge=0.0), BeforeValidator(_number)]
-Positive = Annotated[float, Strict(), Field(gt=0.0), BeforeValidator(_number)]
-Vec3 = Annotated[tuple[Real, Real, Real], BeforeValidator(_sequence)]
-
-
-def dataclass(**kwargs: Any) -> Any:
-    """A frozen pydantic dataclass whose constructor raises SpecError instead of ValidationError."""
-
-    def wrap(cls: type) -> type:
-        cls = _pydantic_dataclass(**kwargs)(cls)
-        init = cls.__init__
-
-        @functools.wraps(init)
-        def __init__(self: Any, *args: Any, **kw: Any) -> None:
-            try:
-                init(self, *args, **kw)
-            except ValidationError as exc:
-                from maniplab import specfile
-
-                raise specfile.translate_errors(exc.errors(), {}, None, {}) from None
-
-        cls.__init__ = __init__  # type: ignore[method-assign]
-        return cls
-
-    return wrap
 
 
 class JointType(str, enum.Enum):
@@ -127,6 +88,11 @@ class JointType(str, enum.Enum):
 
     R = "R"
     P = "P"
+
+    @classmethod
+    def choice_hint(cls) -> str:
+        """Said after the choices when a joint type is unknown."""
+        return " (the paper's Tr is accepted for P)"
 
 
 class Axis(str, enum.Enum):
@@ -140,14 +106,6 @@ class Axis(str, enum.Enum):
     def vector(self) -> np.ndarray:
         """Unit vector of the axis in base coordinates, shape (3,)."""
         return np.eye(3)[" xyz".index(self.value) - 1]
-
-
-class FrictionModel(str, enum.Enum):
-    """Joint friction model: none, the hybrid stick/slip automaton, or LuGre."""
-
-    none = "none"
-    hybrid = "hybrid"
-    lugre = "lugre"
 
 
 _JOINT_TYPE_ALIASES = {
@@ -212,12 +170,12 @@ def _physical_inertia(value: tuple[float, ...]) -> tuple[float, ...]:
 
 Inertia = Annotated[
     tuple[Real, Real, Real, Real, Real, Real],
-    BeforeValidator(_sequence),
+    BeforeValidator(sequence),
     AfterValidator(_physical_inertia),
 ]
 
 
-@dataclass(frozen=True, config=_CONFIG)
+@validated
 class Body:
     """The rigid body that connects a joint to the next one (eq. 1 of the paper).
 
@@ -228,6 +186,8 @@ class Body:
         com: centre of gravity in the joint frame, m, shape (3,).
         inertia: about the COG in joint-frame axes, [Ixx, Iyy, Izz, Ixy, Ixz, Iyz], kg·m².
     """
+
+    EXAMPLE: ClassVar[str] = "length: 1.0, mass: 10.0"
 
     length: NonNegative = 0.0
     direction: Annotated[Vec3, AfterValidator(_unit_direction)] = (1.0, 0.0, 0.0)
@@ -259,136 +219,7 @@ def _inertia_tuple(matrix: np.ndarray) -> tuple[float, ...]:
     return tuple(float(matrix[i, j]) for i, j in ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)))
 
 
-@dataclass(frozen=True, config=_CONFIG)
-class TorqueActuator:
-    """An ideal force (prismatic) or torque (rotational) source: the command is the force.
-
-    Attributes:
-        limit: largest |force| in N or N·m, or None for no limit.
-    """
-
-    type: Literal["torque"] = "torque"
-    limit: Positive | None = None
-
-
-@dataclass(frozen=True, config=_CONFIG)
-class HydraulicActuator:
-    """Valve-controlled hydraulic cylinder of the paper's eq. (4); the command is the valve current.
-
-    Attributes:
-        area: piston area A, m² (m³/rad on a rotational joint: force = A ΔP).
-        volume: oil volume V of the cylinder and lines, m³.
-        bulk_modulus: effective bulk modulus E, Pa.
-        leakage: leakage coefficient Le, m³/(s·Pa).
-        valve_gain: flow gain C, m³/(s·A): flow at current i_v with no load is i_v C.
-        valve_tau: valve time constant τ, s.
-        supply_pressure: Ps, Pa.
-        current_limit: largest |i_v|, A.
-    """
-
-    type: Literal["hydraulic"]
-    area: Positive
-    volume: Positive
-    valve_gain: Positive
-    supply_pressure: Positive
-    bulk_modulus: Positive = 1.4e9
-    leakage: NonNegative = 0.0
-    valve_tau: Positive = 0.01
-    current_limit: Positive = 1.0
-
-
-ACTUATOR_TYPES = ("torque", "hydraulic")
-
-
-@dataclasses.dataclass(frozen=True)
-class PluginActuator:
-    """An actuator implemented by a plugin (:class:`maniplab.actuators.ActuatorPlugin`).
-
-    Written in a spec as ``actuator: {type: "mypkg.motors:GearedDCMotor", <parameters>}`` or with a
-    registered name (``type: dcmotor``); the parameters are validated by the plugin's ``Params``.
-
-    Attributes:
-        type: the plugin's name as written in the spec.
-        params: the plugin's validated parameters (an instance of its ``Params``).
-        plugin: the plugin class (not part of the value).
-    """
-
-    type: str
-    params: Any
-    plugin: Any = dataclasses.field(default=None, compare=False, repr=False)
-
-    def to_dict(self) -> dict[str, Any]:
-        """``{"type": ..., <parameters>}`` as written in a spec file."""
-        return {"type": self.type, **_plain(dataclasses.asdict(self.params))}
-
-
-def _plugin_actuator(value: Any) -> Any:
-    """Validate a mapping whose ``type`` is not a built-in actuator as a plugin actuator."""
-    if not isinstance(value, (Mapping, TorqueActuator, HydraulicActuator, PluginActuator)):
-        raise PydanticCustomError("dict_type", "Input should be a valid dictionary")
-    if not (isinstance(value, Mapping) and isinstance(value.get("type"), str)):
-        return value
-    name = value["type"]
-    if name in ACTUATOR_TYPES:
-        return value
-    from maniplab.actuators import plugin as _plugin
-    from maniplab.specfile import plugin_problem
-
-    try:
-        return _plugin.validate(value)
-    except _plugin.PluginLookupError as exc:
-        if ":" not in name and "no actuator plugin named" in str(exc):
-            raise PydanticCustomError(
-                "union_tag_invalid", "unknown actuator type {tag}", {"tag": name}
-            ) from None
-        raise PydanticCustomError(
-            "plugin_problem", "{problem}", {"problem": str(exc), "field": "type"}
-        ) from None
-    except ValidationError as exc:
-        field, problem = plugin_problem(exc.errors(), _plugin.resolve(name).Params)
-        raise PydanticCustomError(
-            "plugin_problem", "{problem}", {"problem": problem, "field": field}
-        ) from None
-
-
-def _actuator_tag(value: Any) -> Any:
-    if isinstance(value, PluginActuator):
-        return "plugin"
-    tag = value.get("type") if isinstance(value, Mapping) else getattr(value, "type", None)
-    return "plugin?" if tag == "plugin" else tag  # "plugin" is the tag of validated instances
-
-
-Actuator = Annotated[
-    Union[
-        Annotated[TorqueActuator, Tag("torque")],
-        Annotated[HydraulicActuator, Tag("hydraulic")],
-        Annotated[PluginActuator, Tag("plugin")],
-    ],
-    Discriminator(_actuator_tag),
-    BeforeValidator(_plugin_actuator),
-]
-
-
-@dataclass(frozen=True, config=_CONFIG)
-class Friction:
-    """Joint friction parameters (units N, N·s/m, m/s on prismatic joints; N·m, rad/s on rotational).
-
-    ``static`` is the stiction above Coulomb: the break-away force is ``coulomb + static``.
-    The hybrid model uses coulomb, static, stribeck_velocity, viscous and stick_velocity; LuGre
-    uses the same plus sigma0 (bristle stiffness) and sigma1 (bristle damping).
-    """
-
-    model: FrictionModel = FrictionModel.none
-    coulomb: NonNegative = 0.0
-    static: NonNegative = 0.0
-    stribeck_velocity: Positive = 0.01
-    viscous: NonNegative = 0.0
-    stick_velocity: Positive = 1e-3
-    sigma0: Positive = 1e5
-    sigma1: NonNegative = 316.2
-
-
-@dataclass(frozen=True, config=_CONFIG)
+@validated
 class Joint:
     """One degree of freedom: the joint, the body after it, its actuator and its friction.
 
@@ -400,10 +231,12 @@ class Joint:
         body: the connecting body, or None (l_b = 0, m_b = 0).
     """
 
+    EXAMPLE: ClassVar[str] = "name: q1, type: R, axis: z"
+
     name: Annotated[str, Strict(), Field(pattern=_NAME_PATTERN)]
     type: Annotated[JointType, BeforeValidator(_joint_type_alias)]
     axis: Annotated[Axis, BeforeValidator(_axis_alias)]
-    limits: Annotated[tuple[Real, Real], BeforeValidator(_sequence)] | None = None
+    limits: Annotated[tuple[Real, Real], BeforeValidator(sequence)] | None = None
     body: Body | None = None
     actuator: Actuator = TorqueActuator()
     friction: Friction = Friction()
@@ -431,7 +264,7 @@ class Joint:
         return self.body.offset if self.body else np.zeros(3)
 
 
-@dataclass(frozen=True, config=_CONFIG)
+@validated
 class EndEffector:
     """Point mass (the payload) at the frame after the last body, displaced by ``offset``.
 
@@ -442,9 +275,11 @@ class EndEffector:
             for a cube of concrete (2400 kg/m³) of the payload's mass.
     """
 
+    EXAMPLE: ClassVar[str] = "mass: 500.0"
+
     mass: NonNegative = 0.0
     offset: Vec3 = (0.0, 0.0, 0.0)
-    size: Annotated[tuple[Positive, Positive, Positive], BeforeValidator(_sequence)] | None = None
+    size: Annotated[tuple[Positive, Positive, Positive], BeforeValidator(sequence)] | None = None
 
     @property
     def box_size(self) -> np.ndarray:
@@ -454,95 +289,7 @@ class EndEffector:
         return np.full(3, max((self.mass / 2400.0) ** (1.0 / 3.0), 0.05))
 
 
-@dataclass(frozen=True, config=_CONFIG)
-class CartesianGains:
-    """Gains of the outer Cartesian PID on one group of task rows (position or orientation).
-
-    With feedback linearisation each task coordinate obeys ë + kd ė + kp e + ki ∫e = 0.
-
-    Attributes:
-        kp: 1/s².  ki: 1/s³.  kd: 1/s.
-    """
-
-    kp: NonNegative
-    ki: NonNegative = 0.0
-    kd: NonNegative = 0.0
-
-
-@dataclass(frozen=True, config=_CONFIG)
-class PressureGains:
-    """Gains of the inner pressure loop (the same on every hydraulic joint, scaled by V/E).
-
-    Attributes:
-        bandwidth: ω_P, rad/s: Kp_P = ω_P V/E.
-        integral: ω_I, 1/s: Ki_P = ω_I Kp_P (0 for none).
-        speed_gain: k_v, dimensionless: flow k_v A (q̇_ref - q̇) from the speed error.
-        rate_filter: time constant of the dΔP_d/dt filter, s.
-    """
-
-    bandwidth: Positive = 40.0
-    integral: NonNegative = 0.0
-    speed_gain: NonNegative = 0.0
-    rate_filter: NonNegative = 0.01
-
-
-@dataclass(frozen=True, config=_CONFIG)
-class JointPIDGains:
-    """Gains of the PID-only baseline (no feedback linearisation), per joint.
-
-    The PID output is a joint speed (rad/s or m/s) turned into valve current through the valve's
-    no-load gain, i_v = u A / C; on a torque joint the output is scaled by the diagonal of M(q).
-    The defaults are the erector's tuned gains (grid search in examples/pid_baseline.py).
-
-    Attributes:
-        kp: 1/s.  ki: 1/s².  kd: dimensionless.
-    """
-
-    kp: NonNegative = 3.0
-    ki: NonNegative = 96.0
-    kd: NonNegative = 0.0
-
-
-@dataclass(frozen=True, config=_CONFIG)
-class ControlSpec:
-    """The cascade controller's settings (the spec file's optional ``control:`` section).
-
-    Attributes:
-        rate: controller sample rate, Hz.
-        task: "position" (3 task rows) or "pose" (6); None: pose for arms with >= 6 joints.
-        position: outer-loop gains on the position rows.
-        orientation: outer-loop gains on the orientation rows.
-        derivative_filter: time constant of the outer loop's derivative filter, s.
-        dls_damping: largest damping λ of the damped least squares (units of σ(J)).
-        dls_threshold: smallest singular value of J below which the damping starts.
-        null_damping: joint damping in the task's null space (redundant arms), 1/s.
-        capacity_weighting: share the motion among the joints in proportion to their top speed
-            (weighted least squares, weights C i_max / A of each hydraulic joint).
-        coulomb_feedforward: add Fc tanh(q̇_ref / v_s) to G1's inverse dynamics (an extension
-            of the paper's G1 from the spec's friction parameters; it keeps joints from
-            sticking at the start of a move).
-        valve_min_root: floor of sqrt(1 - |ΔP|/Ps) in G2's valve inversion.
-        pressure: inner-loop gains.
-        pid_only: gains of the PID-only baseline.
-    """
-
-    rate: Positive = 200.0
-    task: Literal["position", "pose"] | None = None
-    position: CartesianGains = CartesianGains(kp=400.0, ki=1000.0, kd=40.0)
-    orientation: CartesianGains = CartesianGains(kp=400.0, ki=1000.0, kd=40.0)
-    derivative_filter: NonNegative = 0.0
-    dls_damping: NonNegative = 0.05
-    dls_threshold: NonNegative = 0.05
-    null_damping: NonNegative = 5.0
-    capacity_weighting: Annotated[bool, Strict()] = True
-    coulomb_feedforward: Annotated[bool, Strict()] = True
-    valve_min_root: Annotated[float, Strict(), Field(gt=0.0, le=1.0),
-                              BeforeValidator(_number)] = 0.05
-    pressure: PressureGains = PressureGains()
-    pid_only: JointPIDGains = JointPIDGains()
-
-
-@dataclass(frozen=True, config=_CONFIG, kw_only=True)
+@validated(kw_only=True)
 class ManipulatorSpec:
     """A serial manipulator, base to end-effector, one joint per degree of freedom.
 
@@ -557,10 +304,11 @@ class ManipulatorSpec:
 
     name: Annotated[str, Strict(), Field(min_length=1)]
     gravity: Vec3 = (0.0, 0.0, -9.81)
-    joints: Annotated[tuple[Joint, ...], Field(min_length=1), BeforeValidator(_sequence)]
+    joints: Annotated[tuple[Joint, ...], Field(min_length=1), BeforeValidator(sequence)]
     end_effector: EndEffector = EndEffector()
     control: ControlSpec | None = None
-    source: str | None = dataclasses.field(default=None, compare=False, repr=False)
+    source: str | None = dataclasses.field(default=None, compare=False, repr=False,
+                                           metadata={INTERNAL: True})
 
     @field_validator("name")
     @classmethod
@@ -583,25 +331,31 @@ class ManipulatorSpec:
 
     # --- construction ------------------------------------------------------------------------
     @classmethod
-    def from_dict(cls, data: Any, *, source: str | None = None) -> ManipulatorSpec:
-        """Validate a plain dict (as read from YAML) into a spec; raises SpecError on bad input."""
-        from maniplab import specfile
+    def from_dict(cls, data: Any, *, source: str | None = None,
+                  lines: Mapping[Loc, int] | None = None) -> ManipulatorSpec:
+        """Validate plain data (as read from YAML) into a spec, raising a one-line SpecError.
 
-        return specfile.spec_from_dict(data, source=source)
+        Args:
+            data: the parsed spec (a mapping); joints without a name are named q1..qn.
+            source: the file it came from, for messages (kept as ``spec.source``).
+            lines: map from data locations to line numbers (``yaml_io.parse_yaml``), for
+                messages.
+        """
+        return _from_dict(data, source, lines or {})
 
     def to_dict(self) -> dict[str, Any]:
         """Plain dict (lists, floats, strings) with every default written out; from_dict inverts it."""
-        data = _plain(dataclasses.asdict(self, dict_factory=_drop_source))
+        data: dict[str, Any] = plain(dataclasses.asdict(self))
+        del data["source"]
+        if self.control is None:
+            del data["control"]
         for joint, joint_data in zip(self.joints, data["joints"]):
-            if isinstance(joint.actuator, PluginActuator):
-                joint_data["actuator"] = joint.actuator.to_dict()
+            joint_data["actuator"] = actuator_dict(joint.actuator)
         return data
 
-    def dump(self, path: str) -> None:
+    def dump(self, path: str | os.PathLike[str]) -> None:
         """Write the spec as YAML to ``path`` (atomically); load_spec reads it back equal."""
-        from maniplab import specfile
-
-        specfile.dump_spec(self, path)
+        write_text(Path(path), f"# maniplab spec '{self.name}'\n" + dump_yaml(self.to_dict()))
 
     def with_overrides(self, overrides: Mapping[str, Any]) -> ManipulatorSpec:
         """A copy with fields replaced, addressed by dotted paths.
@@ -610,8 +364,6 @@ class ManipulatorSpec:
         "joints.q2.actuator.leakage": 1e-11, "joints.0.friction.viscous": 2e4}``.
         Raises SpecError naming the path when it does not exist or the value is invalid.
         """
-        from maniplab import overrides as _overrides
-
         return _overrides.apply(self, overrides)
 
     # --- convenience -------------------------------------------------------------------------
@@ -642,19 +394,58 @@ class ManipulatorSpec:
         )
 
 
-def _drop_source(items: list[tuple[str, Any]]) -> dict[str, Any]:
-    """Leave out ``source`` (not part of the value) and an absent ``control`` section."""
-    return {k: v for k, v in items if k != "source" and not (k == "control" and v is None)}
+_TOP_KEYS = ("name", "gravity", "joints", "end_effector", "control")
 
 
-def _plain(value: Any) -> Any:
-    """Turn tuples, enums and numpy scalars into YAML-friendly lists, strings and floats."""
-    if isinstance(value, dict):
-        return {k: _plain(v) for k, v in value.items()}
-    if isinstance(value, (tuple, list)):
-        return [_plain(v) for v in value]
-    if isinstance(value, enum.Enum):
-        return value.value
-    if isinstance(value, (float, np.floating)):
-        return float(value)
-    return value
+def _from_dict(data: Any, source: str | None, lines: Mapping[Loc, int]) -> ManipulatorSpec:
+    if not isinstance(data, dict):
+        raise SpecError(f"expected a mapping with keys {', '.join(_TOP_KEYS)}, got {describe(data)}",
+                        file=source)
+    if "source" in data:  # an internal field, not a key of the file
+        raise SpecError(unknown_key_problem("source", _TOP_KEYS), file=source, field="source",
+                        line=line_of(lines, ("source",)))
+    named = _with_default_names(data)
+    _check_duplicate_names(named, data, source, lines)
+    try:
+        spec = _ADAPTER.validate_python({**named, "source": source})
+    except ValidationError as exc:
+        raise translate_errors(exc.errors(), root=ManipulatorSpec, data=named, source=source,
+                               lines=lines) from None
+    return spec
+
+
+_ADAPTER: TypeAdapter[ManipulatorSpec] = TypeAdapter(ManipulatorSpec)
+
+
+def _with_default_names(data: dict[Any, Any]) -> dict[Any, Any]:
+    data = {"name": "manipulator", **data}
+    joints = data.get("joints")
+    if isinstance(joints, list):
+        data["joints"] = [
+            {"name": f"q{i + 1}", **j} if isinstance(j, dict) else j for i, j in enumerate(joints)
+        ]
+    return data
+
+
+def _check_duplicate_names(data: dict[Any, Any], original: dict[Any, Any], source: str | None,
+                           lines: Mapping[Loc, int]) -> None:
+    """Duplicate joint names (``data`` has default names filled in, ``original`` does not)."""
+    joints = data.get("joints")
+    if not isinstance(joints, list):
+        return
+    seen: dict[str, int] = {}
+    for i, joint in enumerate(joints):
+        name = joint.get("name") if isinstance(joint, dict) else None
+        if not isinstance(name, str):
+            continue
+        if name in seen:
+            first = seen[name]
+            unnamed = [k + 1 for k in (first, i) if "name" not in original["joints"][k]]
+            hint = (f"; joint {unnamed[0]} has no name and defaults to '{name}', so give it one"
+                    if unnamed else "")
+            raise SpecError(
+                f"duplicate joint name '{name}' (joint {first + 1} has it too){hint}; "
+                "expected unique joint names",
+                file=source, joint=name, field="name", line=line_of(lines, ("joints", i, "name")),
+            )
+        seen[name] = i

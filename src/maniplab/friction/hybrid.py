@@ -17,7 +17,7 @@ import dataclasses
 import math
 from collections.abc import Sequence
 
-from maniplab.spec import Friction, FrictionModel
+from maniplab.friction.params import Friction, FrictionModel
 
 
 def slip_force(v: float, direction: float, coulomb: float, static: float,

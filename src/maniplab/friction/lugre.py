@@ -27,8 +27,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from maniplab.actuators.hydraulic import phi1
-from maniplab.spec import Friction, FrictionModel, Joint
+from maniplab.numerics import phi1
+from maniplab.friction.params import Friction, FrictionModel
 
 
 def steady_force(friction: Friction, v: np.ndarray) -> np.ndarray:
@@ -94,9 +94,8 @@ class LuGreBristles:
 
     states = ("z",)
 
-    def __init__(self, lugre: LuGreJoint, joint: Joint) -> None:
+    def __init__(self, lugre: LuGreJoint) -> None:
         self.lugre = lugre
-        self.joint = joint
 
     def derivatives(self, x: np.ndarray, u: float, q: float, v: float) -> np.ndarray:
         """(dz/dt,)."""

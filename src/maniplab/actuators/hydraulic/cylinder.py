@@ -1,0 +1,144 @@
+"""The valve-controlled hydraulic cylinder of the paper's eq. (4) as an actuator plugin.
+
+States ΔP (differential pressure, Pa) and Q (valve flow, m³/s); command i_v (valve current, A):
+
+    (V/E) dΔP/dt + Le ΔP + A v = Q                 (cylinder: compressibility, leakage, piston)
+    Q + τ dQ/dt = i_v C sqrt(max(0, 1 - |ΔP|/Ps))  (valve: first-order lag, flow against load)
+
+and the joint force is A ΔP (N, or N·m with A in m³/rad).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, ClassVar
+
+import mujoco
+import numpy as np
+
+from maniplab.actuators.base import ActuatorPlugin, Jacobians, Steady, set_command_range
+from maniplab.actuators.hydraulic import valve
+from maniplab.actuators.hydraulic.bank import HydraulicBank, pressure_problem
+from maniplab.actuators.hydraulic.drive import PressureDrive
+from maniplab.actuators.hydraulic.params import HydraulicActuator
+
+if TYPE_CHECKING:
+    from maniplab.actuators.drive import ForceDrive
+    from maniplab.spec import ControlSpec
+
+HYDRAULIC_STATES = 2
+"""Activation states of a hydraulic actuator: ΔP (Pa) and Q (m³/s), in that order."""
+
+
+class HydraulicCylinder(ActuatorPlugin):
+    """Eq. (4) on one joint: states (ΔP, Q), command i_v clipped at ±current_limit."""
+
+    Params: ClassVar[type] = HydraulicActuator
+    states: ClassVar[tuple[str, ...]] = ("dP", "Q")
+    state_units: ClassVar[tuple[str, ...]] = ("Pa", "m³/s")
+    command: ClassVar[str] = "iv"
+    command_unit: ClassVar[str] = "A"
+    native: ClassVar[type[HydraulicBank]] = HydraulicBank
+    params: HydraulicActuator
+
+    @property
+    def command_limit(self) -> float:
+        """``current_limit``, A."""
+        return self.params.current_limit
+
+
+    def derivatives(self, x: np.ndarray, u: float, q: float, v: float) -> np.ndarray:
+        """(dΔP/dt, dQ/dt) of eq. (4), Pa/s and m³/s²."""
+        p = self.params
+        dP, Q = float(x[0]), float(x[1])
+        target = valve.flow(u, dP, p.valve_gain, 1.0 / p.supply_pressure)
+        return np.array([p.bulk_modulus / p.volume * (Q - p.leakage * dP - p.area * v),
+                         (target - Q) / p.valve_tau])
+
+    def force(self, x: np.ndarray, u: float, q: float, v: float) -> float:
+        """A ΔP, N or N·m."""
+        return float(self.params.area * x[0])
+
+    def forces(self, x: np.ndarray, u: np.ndarray, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """A ΔP at N samples, (N,)."""
+        return np.asarray(self.params.area * x[:, 0], dtype=float)
+
+    def check_state(self, x: np.ndarray) -> str | None:
+        """A pressure beyond PRESSURE_LIMIT times the supply pressure (or NaN) is unstable."""
+        return pressure_problem(float(x[0]), self.params.supply_pressure)
+
+    def steady(self, force: float, q: float, v: float) -> Steady:
+        """ΔP = f/A, Q = A v + Le ΔP (the piston's flow and the leakage), i_v from the valve law
+        (infinite where |ΔP| >= Ps: no current holds that load)."""
+        p = self.params
+        dP = force / p.area
+        Q = p.area * v + p.leakage * dP
+        r = valve.root(dP, 1.0 / p.supply_pressure)
+        u = Q / (p.valve_gain * r) if r > 0.0 else math.copysign(math.inf, Q)
+        return Steady(np.array([dP, Q]), u)
+
+    def holding(self, force: float, q: float) -> np.ndarray:
+        """ΔP = f/A with the valve's flow at zero (a run "held against gravity" starts so)."""
+        return np.array([force / self.params.area, 0.0])
+
+    def jacobians(self, x: np.ndarray, u: float, q: float, v: float) -> Jacobians:
+        """Exact partial derivatives of eq. (4)."""
+        p = self.params
+        c = p.bulk_modulus / p.volume
+        inv_ps = 1.0 / p.supply_pressure
+        dP = float(x[0])
+        return Jacobians(
+            dxdot_dx=np.array([[-c * p.leakage, c],
+                               [u * p.valve_gain * valve.root_slope(dP, inv_ps) / p.valve_tau,
+                                -1.0 / p.valve_tau]]),
+            dxdot_du=np.array([0.0, p.valve_gain * valve.root(dP, inv_ps) / p.valve_tau]),
+            dxdot_dq=np.zeros(2), dxdot_dv=np.array([-c * p.area, 0.0]),
+            df_dx=np.array([p.area, 0.0]), df_du=0.0, df_dq=0.0, df_dv=0.0,
+        )
+
+    @property
+    def top_speed(self) -> float:
+        """C i_max / A: the piston speed the valve's full flow gives, rad/s or m/s."""
+        p = self.params
+        return p.valve_gain * p.current_limit / p.area
+
+    @property
+    def capacitance(self) -> float:
+        """V/E, m³/Pa."""
+        return self.params.volume / self.params.bulk_modulus
+
+    @property
+    def spring(self) -> float:
+        """The oil spring A²E/V, N/m or N·m/rad."""
+        p = self.params
+        return p.area**2 * p.bulk_modulus / p.volume
+
+    @classmethod
+    def drive(cls, actuators: Sequence[ActuatorPlugin], joints: Sequence[int], *, dt: float,
+              settings: ControlSpec) -> ForceDrive:
+        """The paper's inner pressure loop with the valve inversion G2 (:class:`PressureDrive`)."""
+        return PressureDrive(actuators, joints, dt=dt, settings=settings)
+
+    def configure_mjcf(self, act: mujoco.MjsActuator) -> None:
+        """``user`` dynamics with the two states, a fixed zero gain and no bias.
+
+        In a MuJoCo tool without maniplab's plant it is inert: MuJoCo's user dynamics leave the
+        states as they are without an ``mjcb_act_dyn``, and the force, gain × (the last state) +
+        bias, is zero. (A ``user`` gain would not be: without an ``mjcb_act_gain`` MuJoCo takes it
+        as 1, and the actuator would push with its valve flow Q in m³/s as a force.) The plant
+        gives it the force law of eq. (4) at run time.
+        """
+        act.dyntype = mujoco.mjtDyn.mjDYN_USER
+        act.gaintype = mujoco.mjtGain.mjGAIN_FIXED
+        act.gainprm = [0.0] * 10
+        act.biastype = mujoco.mjtBias.mjBIAS_NONE
+        act.actdim = HYDRAULIC_STATES
+        act.actlimited = mujoco.mjtLimited.mjLIMITED_FALSE
+        set_command_range(act, self.command_limit)
+
+    def describe(self) -> str:
+        """``hydraulic A=... Ps=... MPa``."""
+        unit = "m²" if self.joint.prismatic else "m³/rad"
+        p = self.params
+        return f"hydraulic A={p.area:g} {unit} Ps={p.supply_pressure / 1e6:g} MPa"

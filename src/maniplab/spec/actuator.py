@@ -1,0 +1,127 @@
+"""A joint's ``actuator:`` section: any registered actuator type, validated by its own ``Params``.
+
+A built-in type's parameters carry their ``type`` (``HydraulicActuator(type="hydraulic", ...)``);
+any other plugin's parameters are wrapped with theirs in a :class:`PluginActuator`. Either way the
+value has ``.type`` and the parameters as attributes, :func:`params_of` gives the parameters
+alone, and :func:`model_of` makes the joint's actuator model.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Annotated, Any
+
+from pydantic import PlainValidator, TypeAdapter, ValidationError
+from pydantic_core import PydanticCustomError
+
+from maniplab.actuators.base import ActuatorPlugin
+from maniplab.actuators.registry import BUILTIN, PluginLookupError, resolve
+from maniplab.schema import describe, plain, translate_errors
+from maniplab.schema.translate import choices, did_you_mean
+
+if TYPE_CHECKING:
+    from maniplab.spec.arm import Joint
+
+
+@dataclasses.dataclass(frozen=True)
+class PluginActuator:
+    """An actuator implemented by a plugin whose ``Params`` has no ``type`` field.
+
+    Written in a spec as ``actuator: {type: "mypkg.motors:GearedDCMotor", <parameters>}`` or with a
+    registered name (``type: dcmotor``). Its parameters read as attributes, like a built-in's
+    (``joint.actuator.resistance``).
+
+    Attributes:
+        type: the plugin's name as written in the spec.
+        params: the plugin's validated parameters (an instance of its ``Params``).
+    """
+
+    type: str
+    params: Any
+
+    def __getattr__(self, name: str) -> Any:
+        if name.startswith("__") or name == "params":
+            raise AttributeError(name)
+        return getattr(self.params, name)
+
+
+def params_of(actuator: Any) -> Any:
+    """The parameters of an actuator value (the plugin's ``Params`` instance)."""
+    return actuator.params if isinstance(actuator, PluginActuator) else actuator
+
+
+def model_of(joint: Joint) -> ActuatorPlugin:
+    """The actuator model of ``joint``, made from its spec (built-in or plugin)."""
+    return resolve(joint.actuator.type)(params_of(joint.actuator), joint)
+
+
+def actuator_dict(actuator: Any) -> dict[str, Any]:
+    """``{"type": ..., <parameters>}`` as written in a spec file."""
+    fields = plain(dataclasses.asdict(params_of(actuator)))
+    return {"type": actuator.type, **{k: v for k, v in fields.items() if k != "type"}}
+
+
+def _problem(problem: str, field: str | None = None) -> PydanticCustomError:
+    return PydanticCustomError("spec_problem", "{problem}",
+                               {"problem": problem, "field": field or ""})
+
+
+@functools.cache
+def _adapter(params: type) -> TypeAdapter[Any]:
+    return TypeAdapter(params)
+
+
+def _has_type_field(params: type) -> bool:
+    return any(f.name == "type" for f in dataclasses.fields(params))  # type: ignore[arg-type]
+
+
+def _validated(value: Any) -> bool:
+    if isinstance(value, PluginActuator):
+        return True
+    kind = getattr(value, "type", None)
+    return (dataclasses.is_dataclass(value) and isinstance(kind, str)
+            and getattr(resolve(kind), "Params", None) is type(value))
+
+
+def validate_actuator(value: Any) -> Any:
+    """Validate a joint's ``actuator`` section (a mapping with ``type``) into its value.
+
+    Raises:
+        PydanticCustomError: of kind ``spec_problem``, worded for the spec file, with the field
+            below ``actuator`` that is wrong.
+    """
+    if _validated(value):
+        return value
+    example = "{type: torque}"
+    if not isinstance(value, Mapping):
+        raise _problem(f"expected a mapping such as {example}, got {describe(value)}")
+    if "type" not in value:
+        types = " or ".join(f"'type: {t}'" for t in BUILTIN)
+        raise _problem(f"missing key 'type'; expected {types}, or a plugin's name", "type")
+    name = value["type"]
+    if not isinstance(name, str):
+        raise _problem(f"expected text (an actuator type), got {describe(name)}", "type")
+    try:
+        plugin = resolve(name)
+    except PluginLookupError as exc:
+        if ":" in name or "no actuator plugin named" not in str(exc):
+            raise _problem(str(exc), "type") from None
+        raise _problem(
+            f"unknown actuator type {name!r}; expected {choices(list(BUILTIN))}, or a plugin as "
+            f"'module:Class' or a registered name{did_you_mean(name, list(BUILTIN))}", "type"
+        ) from None
+    params = plugin.Params
+    typed = _has_type_field(params)
+    values = dict(value) if typed else {k: v for k, v in value.items() if k != "type"}
+    try:
+        validated = _adapter(params).validate_python(values)
+    except ValidationError as exc:
+        error = translate_errors(exc.errors(), root=params)
+        raise _problem(error.problem, error.field) from None
+    return validated if typed else PluginActuator(type=name, params=validated)
+
+
+Actuator = Annotated[Any, PlainValidator(validate_actuator)]
+"""The type of ``Joint.actuator``: any registered actuator's validated parameters."""

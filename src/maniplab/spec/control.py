@@ -1,0 +1,106 @@
+"""The controller's settings: the optional ``control:`` section of a spec."""
+
+from __future__ import annotations
+
+from typing import Annotated, ClassVar, Literal
+
+from pydantic import Strict
+
+from maniplab.schema import NonNegative, Positive, UnitInterval, validated
+
+Flag = Annotated[bool, Strict()]
+
+
+@validated
+class CartesianGains:
+    """Gains of the outer Cartesian PID on one group of task rows (position or orientation).
+
+    With feedback linearisation each task coordinate obeys ë + kd ė + kp e + ki ∫e = 0.
+
+    Attributes:
+        kp: 1/s².  ki: 1/s³.  kd: 1/s.
+    """
+
+    EXAMPLE: ClassVar[str] = "kp: 400.0, ki: 1000.0, kd: 40.0"
+
+    kp: NonNegative
+    ki: NonNegative = 0.0
+    kd: NonNegative = 0.0
+
+
+@validated
+class PressureGains:
+    """Gains of the inner pressure loop (the same on every hydraulic joint, scaled by V/E).
+
+    Attributes:
+        bandwidth: ω_P, rad/s: Kp_P = ω_P V/E.
+        integral: ω_I, 1/s: Ki_P = ω_I Kp_P (0 for none).
+        speed_gain: k_v, dimensionless: flow k_v A (q̇_ref - q̇) from the speed error.
+        rate_filter: time constant of the dΔP_d/dt filter, s.
+    """
+
+    EXAMPLE: ClassVar[str] = "bandwidth: 40.0"
+
+    bandwidth: Positive = 40.0
+    integral: NonNegative = 0.0
+    speed_gain: NonNegative = 0.0
+    rate_filter: NonNegative = 0.01
+
+
+@validated
+class JointPIDGains:
+    """Gains of the PID-only baseline (no feedback linearisation), per joint.
+
+    The PID output is a joint speed (rad/s or m/s) turned into valve current through the valve's
+    no-load gain, i_v = u A / C; on a torque joint the output is scaled by the diagonal of M(q).
+    The defaults are the erector's tuned gains (grid search in examples/pid_baseline.py).
+
+    Attributes:
+        kp: 1/s.  ki: 1/s².  kd: dimensionless.
+    """
+
+    EXAMPLE: ClassVar[str] = "kp: 3.0, ki: 96.0"
+
+    kp: NonNegative = 3.0
+    ki: NonNegative = 96.0
+    kd: NonNegative = 0.0
+
+
+@validated
+class ControlSpec:
+    """The cascade controller's settings (the spec file's optional ``control:`` section).
+
+    Attributes:
+        rate: controller sample rate, Hz.
+        task: "position" (3 task rows) or "pose" (6); None: pose for arms with >= 6 joints.
+        position: outer-loop gains on the position rows.
+        orientation: outer-loop gains on the orientation rows.
+        derivative_filter: time constant of the outer loop's derivative filter, s.
+        dls_damping: largest damping λ of the damped least squares (units of σ(J)).
+        dls_threshold: smallest singular value of J below which the damping starts.
+        null_damping: joint damping in the task's null space (redundant arms), 1/s.
+        capacity_weighting: share the motion among the joints in proportion to their top speed
+            (weighted least squares, weights C i_max / A of each hydraulic joint).
+        coulomb_feedforward: add Fc tanh(q̇_ref / v_s) to G1's inverse dynamics (an extension
+            of the paper's G1 from the spec's friction parameters; it keeps joints from
+            sticking at the start of a move).
+        valve_min_root: floor of sqrt(1 - |ΔP|/Ps) in G2's valve inversion.
+        pressure: inner-loop gains.
+        pid_only: gains of the PID-only baseline.
+    """
+
+    EXAMPLE: ClassVar[str] = "rate: 200.0, position: {kp: 400.0, kd: 40.0}"
+
+    rate: Positive = 200.0
+    task: Literal["position", "pose"] | None = None
+    position: CartesianGains = CartesianGains(kp=400.0, ki=1000.0, kd=40.0)
+    orientation: CartesianGains = CartesianGains(kp=400.0, ki=1000.0, kd=40.0)
+    derivative_filter: NonNegative = 0.0
+    dls_damping: NonNegative = 0.05
+    dls_threshold: NonNegative = 0.05
+    null_damping: NonNegative = 5.0
+    capacity_weighting: Flag = True
+    coulomb_feedforward: Flag = True
+    valve_min_root: UnitInterval = 0.05
+    pressure: PressureGains = PressureGains()
+    pid_only: JointPIDGains = JointPIDGains()
