@@ -26,12 +26,13 @@ import timeit
 from pathlib import Path
 
 import numpy as np
+from typing_extensions import Self
 
 import maniplab as ml
 from maniplab.control.kinematics import inverse_kinematics
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples"))
-from _validation import MOVE_Q0, acceptance_move  # noqa: E402
+from _validation import MOVE_Q0, acceptance_move
 
 REPEAT = 5
 
@@ -39,7 +40,7 @@ REPEAT = 5
 class Clock:
     """CPU and wall time of a block: ``with Clock() as c: ...; c.cpu, c.wall`` (s)."""
 
-    def __enter__(self) -> Clock:
+    def __enter__(self) -> Self:
         self._cpu, self._wall = time.process_time(), time.perf_counter()
         return self
 
@@ -104,7 +105,7 @@ def main() -> int:
         idles.append(plant_idle(spec, q0, duration))
     samples = len(controller.times)
     steps = round(duration / run.meta["dt"])
-    med = lambda clocks, kind: statistics.median(getattr(c, kind) for c in clocks)  # noqa: E731
+    med = lambda clocks, kind: statistics.median(getattr(c, kind) for c in clocks)
     # one controller sample on recorded states, timed directly
     states = [(float(tk), np.asarray(run.q[k]), np.asarray(run.qd[k]), np.asarray(run["dP"][k]))
               for k, tk in enumerate(run.t[:: max(1, len(run.t) // 500)])]

@@ -49,8 +49,8 @@ def cold_generation(spec: ml.ManipulatorSpec, backend: str, runs: int = 3) -> fl
 
 def warm_load(backend: str, root: str, runs: int = 5) -> float:
     """Median seconds for AnalyticModel(spec) in a new process whose cache holds the model."""
-    code = ("import time, maniplab as ml; s = ml.builtin_spec(%r); t = time.perf_counter(); "
-            "ml.AnalyticModel(s, backend=%r); print(time.perf_counter() - t)" % (SPEC, backend))
+    code = (f"import time, maniplab as ml; s = ml.builtin_spec({SPEC!r}); t = time.perf_counter(); "
+            f"ml.AnalyticModel(s, backend={backend!r}); print(time.perf_counter() - t)")
     env = {**os.environ, "MANIPLAB_CACHE": root}
     subprocess.run([sys.executable, "-c", code], env=env, check=True, capture_output=True)
     out = [float(subprocess.run([sys.executable, "-c", code], env=env, check=True,

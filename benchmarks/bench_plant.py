@@ -46,7 +46,7 @@ TOLERANCES = (5e-3, 1e-3)  # m, over a travel of about 1.3 m
 LADDER = (2e-2, 1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 2e-4, 1e-4, 5e-5, 2e-5)
 
 
-def timed(fn, repeats: int) -> tuple[float, float]:  # noqa: ANN001
+def timed(fn, repeats: int) -> tuple[float, float]:
     """Median (CPU, wall) seconds of ``fn()`` over ``repeats`` runs."""
     cpu, wall = [], []
     for _ in range(repeats):
@@ -71,7 +71,7 @@ def erector(repeats: int) -> list[str]:
         plant.balance_pressures()
         start = plant.save()
 
-        def run(plant=plant, start=start):  # noqa: ANN001, ANN202
+        def run(plant=plant, start=start):
             plant.restore(start)
             return ml.simulate(plant, inputs=ERECTOR_INPUTS, duration=10.0)
 
@@ -81,8 +81,8 @@ def erector(repeats: int) -> list[str]:
                      for j in range(6)]
         t = timed(run, n)
         rows.append((f"plant, {route} route (10 s simulated)", t,
-                     f"{10.0 / t[0]:.1f}x real time (CPU), {10.0 / t[1]:.1f}x (wall); "
-                     f"{t[0] / bare[0]:.2f}x bare mj_step"))
+                     (f"{10.0 / t[0]:.1f}x real time (CPU), {10.0 / t[1]:.1f}x (wall); "
+                      f"{t[0] / bare[0]:.2f}x bare mj_step")))
     build = timed(lambda: ml.simulate("erector", inputs=ERECTOR_INPUTS, duration=10.0,
                                       initial={"dP": "gravity"}), max(1, repeats // 2))
     rows.append(("ml.simulate end to end (plant built, 10 s)", build,
@@ -112,7 +112,7 @@ def g(v: float) -> float:
     return FC + (FS - FC) * math.exp(-((v / VS) ** 2))
 
 
-def lugre_reference():  # noqa: ANN201
+def lugre_reference():
     def rhs(t: float, y: np.ndarray) -> list[float]:
         x, v, z = y
         zd = v - SIGMA0 * abs(v) * z / g(v)
@@ -123,7 +123,7 @@ def lugre_reference():  # noqa: ANN201
     return lambda t: sol(t)[0]
 
 
-def hybrid_reference():  # noqa: ANN201
+def hybrid_reference():
     """The hybrid automaton integrated exactly: stuck until the spring force reaches Fc + Fs,
     then slipping (Coulomb + Stribeck + viscous) until the velocity falls below the stick
     velocity, located by solve_ivp's event detection."""
@@ -161,7 +161,7 @@ def hybrid_reference():  # noqa: ANN201
     return position
 
 
-def stick_slip_run(model: str, route: str, dt: float):  # noqa: ANN201
+def stick_slip_run(model: str, route: str, dt: float):
     plant = ml.Plant(block(model), dt=dt, route=route)
     plant.model.jnt_stiffness[0] = K  # the spring: -k x in MuJoCo, +k VP t as the input
     start = plant.save()
@@ -174,7 +174,7 @@ def stick_slip_run(model: str, route: str, dt: float):  # noqa: ANN201
     return run
 
 
-def errors(model: str, route: str, reference, ladder,  # noqa: ANN001
+def errors(model: str, route: str, reference, ladder,
            target: float) -> dict[float, float]:
     """Max position error of the run at each dt of the ladder (inf when unstable), going down
     the ladder until the error is within ``target``."""
@@ -199,8 +199,8 @@ def stick_slip(repeats: int, quick: bool) -> list[str]:
               lugre, LADDER[:8] if quick else LADDER)]
     found = {name: errors(model, route, ref, ladder, min(TOLERANCES))
              for name, model, route, ref, ladder in cases}
-    lines = ["| tolerance | friction model | largest dt within it | error | CPU | wall "
-             "| CPU / hybrid's |", "|---|---|---|---|---|---|---|"]
+    lines = [("| tolerance | friction model | largest dt within it | error | CPU | wall "
+              "| CPU / hybrid's |"), "|---|---|---|---|---|---|---|"]
     timings: dict[tuple[str, float], tuple[float, float]] = {}
     for tolerance in TOLERANCES:
         base = None

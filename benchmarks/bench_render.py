@@ -92,11 +92,11 @@ def main() -> None:
         for label, look in (("default: antialiased, no shadows", {}),
                             ("shadows on", {"shadows": True}),
                             ("antialiasing off", {"antialias": False})):
-            wall, cpu = median_time(lambda: ml.write_video(viz.iter_frames(run, **size, **look),
-                                                           out, fps=FPS), args.repeats)
+            wall, cpu = median_time(lambda look=look: ml.write_video(
+                viz.iter_frames(run, **size, **look), out, fps=FPS), args.repeats)
             note = f"{out.stat().st_size / 1e6:.1f} MB" + ("; target < 20 s" if not look else "")
             row(f"10 s video, render + encode, {label}", wall, cpu, note)
-            wall, cpu = median_time(lambda: viz.render(run, **size, **look), args.repeats)
+            wall, cpu = median_time(lambda look=look: viz.render(run, **size, **look), args.repeats)
             row(f"  rendering alone, {label}", wall, cpu, "frames kept in memory")
         frames = viz.render(run, **size)
         wall, cpu = median_time(lambda: ml.write_video(frames, out, fps=FPS), args.repeats)

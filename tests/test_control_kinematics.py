@@ -111,13 +111,13 @@ def test_bias_acceleration_is_the_second_derivative_of_position(erector: tuple) 
     kin = Kinematics(am)
     q, qd = random_q(spec, np.random.default_rng(4)), np.array([0.3, -0.2, 0.5, 0.1, 0.2, -0.4])
     h = 1e-3
-    p = lambda s: am.fk(q + s * qd)[:3, 3]  # noqa: E731
+    p = lambda s: am.fk(q + s * qd)[:3, 3]
     d2 = (-p(2 * h) + 16 * p(h) - 30 * p(0) + 16 * p(-h) - p(-2 * h)) / (12 * h * h)
     np.testing.assert_allclose(kin.bias_acceleration(q, qd)[:3], d2, atol=1e-8)
 
 
 def test_dls_step_reduces_the_error_to_first_order(erector: tuple) -> None:
-    spec, am = erector
+    _spec, am = erector
     q = np.array([-0.3, 1.0, 0.4, 0.05, 0.1, -0.1])
     H = am.fk(q)
     direction = np.array([0.3, -0.5, 0.2, 0.1, -0.2, 0.15])
@@ -160,7 +160,7 @@ def test_dls_is_damped_and_bounded_near_a_singularity() -> None:
 
 
 def test_null_space_projector(erector: tuple) -> None:
-    spec, am = erector
+    _spec, am = erector
     J = am.jacobian(np.array([-0.3, 1.0, 0.4, 0.05, 0.1, -0.1]))[:3]
     for w in (None, np.array([1.0, 0.5, 0.3, 0.8, 0.2, 0.1])):
         N = DampedLeastSquares(J, weights=w).null_space()
@@ -171,7 +171,7 @@ def test_null_space_projector(erector: tuple) -> None:
 
 
 def test_inverse_kinematics_reaches_a_pose(erector: tuple) -> None:
-    spec, am = erector
+    _spec, am = erector
     q_true = np.array([-0.4, 0.9, 0.3, 0.1, -0.1, 0.2])
     from maniplab.control.trajectory import Pose
 

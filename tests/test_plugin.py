@@ -12,11 +12,11 @@ import threading
 import mujoco
 import numpy as np
 import pytest
+from plugins.dcmotor import GearedDCMotor
 from scipy.integrate import solve_ivp
 
 import maniplab as ml
 from maniplab.actuators import registry as registry_module
-from plugins.dcmotor import GearedDCMotor
 
 MOTOR = {"resistance": 1.0, "inductance": 5e-3, "torque_constant": 0.05, "gear_ratio": 20.0,
          "efficiency": 0.9, "voltage_limit": 24.0}
@@ -44,7 +44,7 @@ def motor_reference(t: np.ndarray, voltage: float) -> np.ndarray:
                                           "gear_ratio", "efficiency"))
 
     def rhs(_t: float, y: np.ndarray) -> list[float]:
-        theta, omega, i = y
+        _theta, omega, i = y
         return [omega, (eta * N * K * i - DAMPING * omega) / J,
                 (voltage - R * i - K * N * omega) / L]
 
@@ -161,7 +161,7 @@ def test_registered_names_and_entry_points(monkeypatch) -> None:
 
 def test_the_interface_rejects_reserved_state_names() -> None:
     with pytest.raises(TypeError, match="not a valid state name"):
-        class Bad(ml.actuators.ActuatorPlugin):  # noqa: F841
+        class Bad(ml.actuators.ActuatorPlugin):
             Params = dict
             states = ("q",)
 
@@ -183,11 +183,11 @@ def test_a_stateless_plugin() -> None:
 
 # --- callbacks: process-global, handled per plant ---------------------------------------------
 
-def _sentinel_dyn(m, d, i):  # noqa: ANN001, ANN202 - MuJoCo's callback signature
+def _sentinel_dyn(m, d, i):
     return 0.0
 
 
-def _sentinel_bias(m, d, i):  # noqa: ANN001, ANN202
+def _sentinel_bias(m, d, i):
     return 0.0
 
 
@@ -233,7 +233,7 @@ def test_a_plant_inside_another_plants_controller(sentinels) -> None:
     """The inner plant installs its callbacks and gives the outer plant's back."""
     inner = ml.Plant(motor_arm(gear_ratio=10.0))
 
-    def controller(t, state):  # noqa: ANN001, ANN202
+    def controller(t, state):
         inner.step([12.0])
         return [12.0]
 

@@ -84,7 +84,7 @@ def _lift_solution() -> tuple:
     T_STEP (integrated in two pieces, so the step is not smeared)."""
 
     def rhs(_t: float, y: np.ndarray, iv: float) -> list[float]:
-        x, v, p, q = y
+        _x, v, p, q = y
         return [v, (A * p - M * G - FV * v) / M, E / V * (q - LE * p - A * v),
                 (CV * iv * np.sqrt(max(0.0, 1.0 - abs(p) / PS)) - q) / TAU]
 

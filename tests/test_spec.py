@@ -376,9 +376,9 @@ def spec_dicts(draw):
              "axis": st.sampled_from("xyz")},
             optional={"limits": limits, "body": st.none() | bodies, "actuator": actuators,
                       "friction": frictions},
-        ))  # fmt: skip
+        ))
         for name in joint_names
-    ]
+    ]  # fmt: skip
     return draw(st.fixed_dictionaries(
         {"joints": st.just(joints)},
         optional={"name": st.text(min_size=1, max_size=12).filter(str.isprintable),

@@ -8,6 +8,7 @@ small (160x120) and runs short, so the module takes seconds.
 
 from __future__ import annotations
 
+import itertools
 import os
 from collections.abc import Iterator
 from pathlib import Path
@@ -18,8 +19,8 @@ import pytest
 
 import maniplab as ml
 from maniplab import viz
-from maniplab.friction.modes import FrictionMode
 from maniplab.cli import main
+from maniplab.friction.modes import FrictionMode
 from maniplab.sim.run import Run
 from maniplab.viz.gl import RenderError, open_context
 from maniplab.viz.render import strip_height
@@ -104,7 +105,7 @@ def test_frames_change_while_the_arm_moves_and_stay_identical_while_it_rests() -
     run = scripted("planar2", planar_wave, 3.0)
     frames = ml.render(run, width=W, height=H, fps=10, text=False)
     assert len(frames) == 31
-    moving = list(range(0, 10)) + list(range(20, 30))
+    moving = list(range(10)) + list(range(20, 30))
     for k in moving:
         assert not np.array_equal(frames[k], frames[k + 1]), f"frames {k} and {k + 1}"
     for k in range(10, 20):  # t = 1.0 ... 2.0 s: at rest (the path does not grow either)
@@ -114,7 +115,7 @@ def test_frames_change_while_the_arm_moves_and_stay_identical_while_it_rests() -
 def test_time_stamp_changes_every_frame_at_rest() -> None:
     run = scripted("planar2", lambda t: np.zeros((len(t), 2)), 0.3)
     frames = ml.render(run, width=W, height=H, fps=10)
-    assert all(not np.array_equal(a, b) for a, b in zip(frames[:-1], frames[1:]))
+    assert all(not np.array_equal(a, b) for a, b in itertools.pairwise(frames))
 
 
 def test_stick_and_limit_colours_appear_exactly_where_the_run_has_those_states() -> None:
