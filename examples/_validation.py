@@ -14,15 +14,13 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 import maniplab as ml
+from maniplab.atomic import write_text
 from maniplab.control.metrics import TrackingMetrics, format_table, to_json
-from maniplab.validation import (  # noqa: F401 - re-exported for the scripts
-    MOVE_Q0, PICK_Q0, START, acceptance_move, placement_path, run_case)
+from maniplab.demo.erector import MOVE_Q0, PICK_Q0, START, acceptance_move, placement_path, run_case  # noqa: F401 - re-exported for the scripts
 from maniplab.viz.plots import save_figure
 from maniplab.viz.tracking import tracking_figure
-from maniplab.atomic import write_text
+
 
 def parse_args(description: str, argv: Sequence[str] | None, *,
                tune: bool = False) -> argparse.Namespace:

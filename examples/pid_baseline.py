@@ -20,9 +20,19 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from _validation import (
+    MOVE_Q0,
+    PICK_Q0,
+    acceptance_move,
+    dump_json,
+    parse_args,
+    placement_path,
+    ratio_line,
+    report,
+    run_case,
+)
+
 import maniplab as ml
-from _validation import (MOVE_Q0, PICK_Q0, acceptance_move, dump_json, parse_args,
-                         placement_path, ratio_line, report, run_case)
 from maniplab.spec import JointPIDGains
 
 GRID = {"kp": (1.0, 2.0, 3.0, 4.0, 6.0), "ki": (16.0, 32.0, 64.0, 96.0, 128.0, 192.0, 256.0),

@@ -13,9 +13,17 @@ from __future__ import annotations
 import sys
 from collections.abc import Sequence
 
+from _validation import (
+    MOVE_Q0,
+    PICK_Q0,
+    acceptance_move,
+    parse_args,
+    placement_path,
+    report,
+    run_case,
+)
+
 import maniplab as ml
-from _validation import (MOVE_Q0, PICK_Q0, acceptance_move, parse_args, placement_path, report,
-                         run_case)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -22,7 +22,7 @@ def erector() -> tuple[ml.ManipulatorSpec, ml.AnalyticModel]:
 Q0 = np.array([-0.18, 1.27, 0.0, 0.0, 0.0, 0.0])
 
 
-def move(am: ml.AnalyticModel, q0: np.ndarray = Q0, d=(-0.9, 0.45, 0.0)) -> MinJerkMove:  # noqa: ANN001
+def move(am: ml.AnalyticModel, q0: np.ndarray = Q0, d=(-0.9, 0.45, 0.0)) -> MinJerkMove:
     start = Pose.from_matrix(am.fk(q0))
     return MinJerkMove(start, start.translated(d), 4.0, t0=0.5)
 

@@ -22,7 +22,7 @@ class MujocoPlantODE:
         self.d = mujoco.MjData(self.m)
         self.hyd = [i for i, j in enumerate(spec.joints) if j.actuator.type == "hydraulic"]
 
-    def friction(self, v: float, f) -> float:  # noqa: ANN001
+    def friction(self, v: float, f) -> float:
         out = f.viscous * v
         if self.coulomb and f.model.value != "none" and v != 0.0:
             out += np.sign(v) * (f.coulomb + f.static * np.exp(-((v / f.stribeck_velocity) ** 2)))

@@ -85,7 +85,7 @@ def test_readme_control_section_shows_the_defaults(tmp_path: Path) -> None:
     import re
 
     readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
-    block = re.search(r"```yaml\n(control:\n.*?)```", readme, re.S)
+    block = re.search(r"```yaml\n(control:\n.*?)```", readme, re.DOTALL)
     assert block, "README has no control: example"
     spec = ml.load_spec(write(tmp_path, ARM + block.group(1)))
     assert spec.control == ControlSpec()

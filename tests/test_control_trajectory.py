@@ -47,7 +47,7 @@ def test_min_jerk_move_endpoints_and_midpoint() -> None:
     assert np.linalg.norm(mid.velocity) == pytest.approx(15 / 8 * 1.0 / 4.0)
 
 
-def finite_difference(traj, t: float, h: float = 1e-5):  # noqa: ANN001, ANN201
+def finite_difference(traj, t: float, h: float = 1e-5):
     a, b = traj.sample(t - h), traj.sample(t + h)
     v = (b.position - a.position) / (2 * h)
     acc = (b.velocity - a.velocity) / (2 * h)

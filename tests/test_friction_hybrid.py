@@ -9,8 +9,8 @@ from scipy.integrate import solve_ivp
 
 import maniplab as ml
 from maniplab.friction import FrictionMode
-from maniplab.sim.automaton import transitions
 from maniplab.friction.hybrid import slip_force, sticks
+from maniplab.sim.automaton import transitions
 
 STICK, SLIP = FrictionMode.STICK, FrictionMode.SLIP
 AT_LOWER, AT_UPPER = FrictionMode.AT_LOWER, FrictionMode.AT_UPPER

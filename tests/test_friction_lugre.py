@@ -44,7 +44,7 @@ def g(v: float) -> float:
     return FC + (FS - FC) * math.exp(-((v / VS) ** 2))
 
 
-def lugre_rhs(force):  # noqa: ANN001, ANN201
+def lugre_rhs(force):
     def rhs(t: float, y: np.ndarray) -> list[float]:
         x, v, z = y
         zd = v - SIGMA0 * abs(v) * z / g(v)
@@ -53,7 +53,7 @@ def lugre_rhs(force):  # noqa: ANN001, ANN201
 
 
 @functools.cache
-def stick_slip_reference():  # noqa: ANN201
+def stick_slip_reference():
     rhs = lugre_rhs(lambda t, x: K * (VP * t - x))
     return solve_ivp(rhs, (0.0, T_END), [0.0, 0.0, 0.0], method="Radau", rtol=1e-10,
                      atol=1e-12, dense_output=True, max_step=1e-2).sol

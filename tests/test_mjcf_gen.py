@@ -25,8 +25,14 @@ from hypothesis import strategies as st
 
 import maniplab
 from maniplab import ManipulatorSpec, ModelError
-from maniplab.mjcf_gen import END_EFFECTOR, body_name, build_mjspec, build_model, to_mjcf
-from maniplab.mjcf_gen import write_mjcf
+from maniplab.mjcf_gen import (
+    END_EFFECTOR,
+    body_name,
+    build_mjspec,
+    build_model,
+    to_mjcf,
+    write_mjcf,
+)
 from maniplab.mjcf_gen.writer import serialize
 
 ASSETS = Path(maniplab.__file__).parent / "assets"
@@ -62,13 +68,7 @@ def _assert_close(actual: np.ndarray, expected: np.ndarray, rel: float, atol: fl
 
 # --- 1. the MJCF text gives the same model as MjSpec ---------------------------------------------
 
-_SAME_ARRAYS = (
-    "body_parentid body_pos body_quat body_ipos body_iquat body_mass body_inertia "
-    "jnt_type jnt_bodyid jnt_axis jnt_pos jnt_limited jnt_range "
-    "actuator_trntype actuator_trnid actuator_dyntype actuator_gaintype actuator_biastype "
-    "actuator_gear actuator_ctrllimited actuator_ctrlrange actuator_actnum actuator_gainprm "
-    "geom_type geom_size geom_pos geom_quat geom_contype geom_conaffinity cam_pos cam_quat cam_mode"
-).split()
+_SAME_ARRAYS = ["body_parentid", "body_pos", "body_quat", "body_ipos", "body_iquat", "body_mass", "body_inertia", "jnt_type", "jnt_bodyid", "jnt_axis", "jnt_pos", "jnt_limited", "jnt_range", "actuator_trntype", "actuator_trnid", "actuator_dyntype", "actuator_gaintype", "actuator_biastype", "actuator_gear", "actuator_ctrllimited", "actuator_ctrlrange", "actuator_actnum", "actuator_gainprm", "geom_type", "geom_size", "geom_pos", "geom_quat", "geom_contype", "geom_conaffinity", "cam_pos", "cam_quat", "cam_mode"]
 
 
 def _assert_same_model(spec: ManipulatorSpec, states: int = 3) -> None:
@@ -464,11 +464,11 @@ def test_actuators_are_named_after_joints_and_ready_for_the_plant() -> None:
         np.testing.assert_array_equal(mjdata.qpos, free_fall.qpos)
 
 
-def _foreign_dyn(m, d, i):  # noqa: ANN001, ANN202 - MuJoCo's callback signature
+def _foreign_dyn(m, d, i):
     return 0.0
 
 
-def _foreign_bias(m, d, i):  # noqa: ANN001, ANN202
+def _foreign_bias(m, d, i):
     return 0.0
 
 

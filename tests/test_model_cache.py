@@ -12,10 +12,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from test_model import MjRef, assert_close
 
 import maniplab as ml
 from maniplab.model import AnalyticModel, build, cache
-from test_model import MjRef, assert_close
 
 MODEL_DIR = Path(ml.__file__).parent / "model"
 

@@ -17,12 +17,12 @@ import mujoco
 import numpy as np
 import pytest
 import sympy
+from test_model import MjRef, _model_cache, assert_close, random_states  # noqa: F401 (fixture)
 
 import maniplab as ml
 from maniplab.cli import main
 from maniplab.model import SymbolicModel
 from maniplab.model.export import readable
-from test_model import MjRef, _model_cache, assert_close, random_states  # noqa: F401 (fixture)
 
 CC = shutil.which("cc") or shutil.which("gcc")
 

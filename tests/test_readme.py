@@ -11,7 +11,7 @@ README = Path(__file__).resolve().parents[1] / "README.md"
 
 
 def test_readme_example_spec_loads(tmp_path: Path) -> None:
-    block = re.search(r"```yaml\n(.*?)```", README.read_text(), re.S)
+    block = re.search(r"```yaml\n(.*?)```", README.read_text(), re.DOTALL)
     assert block, "README has no yaml example"
     path = tmp_path / "two-link.yaml"
     path.write_text(block.group(1))

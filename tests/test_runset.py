@@ -44,7 +44,7 @@ def test_filter_by_parameter(folder: Path) -> None:
 def test_listing_reads_headers_only(folder: Path, monkeypatch) -> None:
     loads = []
     real = store.load
-    monkeypatch.setattr(store, "load", lambda path: loads.append(path) or real(path))
+    monkeypatch.setattr(store, "load", lambda path, cls: loads.append(path) or real(path, cls))
     runs = RunSet(folder)
     runs.table()
     runs.filter(end_effector__mass=3000.0)

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import contextlib
 import threading
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from typing import Any, Protocol
 
 import mujoco
@@ -31,8 +31,9 @@ _LOCK = threading.RLock()
 class ActuatorCallbacks(Protocol):
     """A pair of MuJoCo actuator callbacks, ``(model, data, actuator id) -> float``."""
 
-    act_dyn: Callable[[Any, Any, int], float]
-    act_bias: Callable[[Any, Any, int], float]
+    def act_dyn(self, m: Any, d: Any, i: int, /) -> float: ...
+
+    def act_bias(self, m: Any, d: Any, i: int, /) -> float: ...
 
 
 @contextlib.contextmanager

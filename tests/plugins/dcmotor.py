@@ -10,8 +10,8 @@ from typing import ClassVar
 
 import numpy as np
 
-from maniplab.actuators import ActuatorPlugin, parameters
-from maniplab.spec import Positive
+from maniplab.actuators import ActuatorPlugin, Steady, parameters
+from maniplab.schema import Positive
 
 
 @parameters
@@ -47,6 +47,13 @@ class GearedDCMotor(ActuatorPlugin):
     def force(self, x: np.ndarray, u: float, q: float, v: float) -> float:
         p = self.params
         return p.efficiency * p.gear_ratio * p.torque_constant * x[0]
+
+    def steady(self, force: float, q: float, v: float) -> Steady:
+        """The current that gives ``force`` and the voltage that holds it at speed v."""
+        p = self.params
+        current = force / (p.efficiency * p.gear_ratio * p.torque_constant)
+        return Steady(np.array([current]), p.resistance * current
+                      + p.torque_constant * p.gear_ratio * v)
 
 
 class Faulty(GearedDCMotor):

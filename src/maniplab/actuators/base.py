@@ -47,10 +47,9 @@ from typing import TYPE_CHECKING, Any, ClassVar, NamedTuple
 import mujoco
 import numpy as np
 
+from maniplab.actuators.drive import ForceDrive, StaticDrive
 from maniplab.errors import ManiplabError
 from maniplab.schema import validated
-
-from maniplab.actuators.drive import ForceDrive, StaticDrive
 
 if TYPE_CHECKING:
     from maniplab.spec import ControlSpec, Joint

@@ -9,7 +9,7 @@ bias law, helper actuators) and acts before and after each MuJoCo step.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import mujoco
 

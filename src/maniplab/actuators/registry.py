@@ -26,6 +26,7 @@ from typing import Any
 from maniplab.actuators.base import ActuatorPlugin
 from maniplab.actuators.hydraulic import HydraulicCylinder
 from maniplab.actuators.torque import TorqueSource
+from maniplab.errors import ManiplabError
 
 ENTRY_POINT_GROUP = "maniplab.actuators"
 """Entry-point group under which installed packages register actuator plugins."""
@@ -33,12 +34,19 @@ ENTRY_POINT_GROUP = "maniplab.actuators"
 BUILTIN: dict[str, type[ActuatorPlugin]] = {"torque": TorqueSource, "hydraulic": HydraulicCylinder}
 """The built-in actuator types by name."""
 
+IDEAL_SOURCE = "torque"
+"""The type of the ideal force/torque source (the command is the force)."""
+
 _REGISTRY: dict[str, type[ActuatorPlugin]] = dict(BUILTIN)
 _RESOLVED: dict[str, type[ActuatorPlugin]] = {}
 
 
-class PluginLookupError(LookupError):
+class PluginLookupError(ManiplabError, LookupError):
     """No actuator plugin of that name (the message says why and what was expected)."""
+
+
+class RegistryError(ManiplabError, ValueError):
+    """A name cannot be registered (taken, or malformed)."""
 
 
 def register(name: str, plugin: type[ActuatorPlugin]) -> None:
@@ -46,13 +54,14 @@ def register(name: str, plugin: type[ActuatorPlugin]) -> None:
 
     Raises:
         TypeError: ``plugin`` is not an ActuatorPlugin subclass with a Params dataclass.
-        ValueError: ``name`` is taken by another plugin, or contains ':'.
+        RegistryError: ``name`` is taken by another plugin, or contains ':'.
     """
     _check_plugin(plugin, name)
     if ":" in name:
-        raise ValueError(f"plugin name {name!r} may not contain ':' (that form means module:Class)")
+        raise RegistryError(f"plugin name {name!r} may not contain ':' (that form means "
+                            "module:Class)")
     if _REGISTRY.get(name, plugin) is not plugin:
-        raise ValueError(f"actuator plugin name {name!r} is already registered")
+        raise RegistryError(f"actuator plugin name {name!r} is already registered")
     _REGISTRY[name] = plugin
 
 
@@ -86,7 +95,7 @@ def _entry_point(name: str) -> type[ActuatorPlugin]:
                     f"({type(exc).__name__}: {exc})"
                 ) from None
             _check_plugin(plugin, name, lookup=True)
-            return plugin  # type: ignore[no-any-return]
+            return plugin
     raise PluginLookupError(f"no actuator plugin named {name!r}")
 
 
@@ -109,7 +118,7 @@ def _import(name: str) -> type[ActuatorPlugin]:
                 f"module {module_name!r} has no {attr!r} (actuator plugin {name!r})"
             ) from None
     _check_plugin(obj, name, lookup=True)
-    return obj  # type: ignore[no-any-return]
+    return obj
 
 
 def _check_plugin(plugin: Any, name: str, *, lookup: bool = False) -> None:

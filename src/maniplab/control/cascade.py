@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from maniplab.actuators import ActuatorPlugin, ForceDrive
+from maniplab.control.errors import ControlError
 from maniplab.control.inverse_dynamics import InverseDynamics
 from maniplab.control.kinematics import DampedLeastSquares, Kinematics, matrix_to_rpy, rotation_log
 from maniplab.control.pid import PID
@@ -81,7 +82,7 @@ class CascadeController:
                  gains: ControlSpec | None = None, mode: str = "cascade",
                  model: AnalyticModel | None = None, **settings: Any) -> None:
         if mode not in MODES:
-            raise ValueError(f"unknown mode {mode!r}; expected 'cascade' or 'pid'")
+            raise ControlError(f"unknown mode {mode!r}; expected 'cascade' or 'pid'")
         gains = gains or spec.control or ControlSpec()
         if settings:
             gains = dataclasses.replace(gains, **settings)
@@ -101,7 +102,7 @@ class CascadeController:
     def _build_loops(self) -> None:
         g, m, n = self.gains, len(self.rows), self.n
         pos, ori = g.position, g.orientation
-        pick = lambda a, b: np.array([a] * 3 + [b] * 3)[:m]  # noqa: E731
+        pick = lambda a, b: np.array([a] * 3 + [b] * 3)[:m]
         self.outer = PID(pick(pos.kp, ori.kp), pick(pos.ki, ori.ki), pick(pos.kd, ori.kd),
                          dt=self.dt, filter_time=g.derivative_filter)
         self.g1 = InverseDynamics(self.model, coulomb=g.coulomb_feedforward)
@@ -294,7 +295,7 @@ class CascadeController:
                  if k != "ctrl.cmd"}
         clash = sorted(set(extra) & set(run.signals))
         if clash:
-            raise ValueError(f"the run already has signals {clash}")
+            raise ControlError(f"the run already has signals {clash}")
         meta = {**dict(run.meta), "control": self.settings()}
         return type(run)(t=run.t, signals={**run.signals, **extra}, spec=run.spec, meta=meta)
 

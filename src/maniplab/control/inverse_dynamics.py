@@ -7,13 +7,10 @@ actuator drive then turns τ_d into its command (e.g. ΔP_d = τ_d / A on a hydr
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
+from numpy.typing import ArrayLike
 
 from maniplab.model import AnalyticModel
-
-ArrayLike = Any
 
 
 class InverseDynamics:

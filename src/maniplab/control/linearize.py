@@ -27,13 +27,9 @@ from numpy.typing import ArrayLike
 
 from maniplab.actuators import ActuatorPlugin
 from maniplab.actuators.base import STANDARD_STATES
-from maniplab.errors import ManiplabError
+from maniplab.control.errors import LinearizeError
 from maniplab.model import AnalyticModel
 from maniplab.spec import ManipulatorSpec, model_of
-
-
-class LinearizeError(ManiplabError, ValueError):
-    """An operating point is malformed, or no actuator state holds it."""
 
 
 def _states(actuators: list[ActuatorPlugin]) -> list[tuple[str, list[int]]]:

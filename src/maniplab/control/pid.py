@@ -18,11 +18,10 @@ starts at the first measured value.
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
+from numpy.typing import ArrayLike
 
-ArrayLike = Any
+from maniplab.control.errors import ControlError
 
 
 class PID:
@@ -47,9 +46,9 @@ class PID:
                  filter_time: float = 0.0, limits: tuple[ArrayLike, ArrayLike] | None = None,
                  tracking_time: ArrayLike | None = None, size: int | None = None) -> None:
         if not dt > 0.0:
-            raise ValueError(f"dt must be > 0, got {dt!r}")
+            raise ControlError(f"dt must be > 0, got {dt!r}")
         if filter_time < 0.0:
-            raise ValueError(f"filter_time must be >= 0, got {filter_time!r}")
+            raise ControlError(f"filter_time must be >= 0, got {filter_time!r}")
         m = size if size is not None else max(np.size(kp), np.size(ki), np.size(kd), 1)
         self.kp = np.broadcast_to(np.asarray(kp, dtype=float), (m,)).copy()
         self.ki = np.broadcast_to(np.asarray(ki, dtype=float), (m,)).copy()
@@ -63,7 +62,7 @@ class PID:
             self.lo = np.broadcast_to(np.asarray(limits[0], dtype=float), (m,)).copy()
             self.hi = np.broadcast_to(np.asarray(limits[1], dtype=float), (m,)).copy()
             if np.any(self.lo > self.hi):
-                raise ValueError(f"limits {limits!r} are not ordered (lo <= hi)")
+                raise ControlError(f"limits {limits!r} are not ordered (lo <= hi)")
         self.tracking_time = self._tracking_time(tracking_time, m)
         self._a = self.filter_time / (self.filter_time + self.dt)  # filter pole
         self._b = self.dt / (self.filter_time + self.dt)
@@ -76,7 +75,7 @@ class PID:
         if tracking_time is not None:
             tt = np.broadcast_to(np.asarray(tracking_time, dtype=float), (m,)).copy()
             if np.any(tt <= 0.0):
-                raise ValueError(f"tracking_time must be > 0, got {tracking_time!r}")
+                raise ControlError(f"tracking_time must be > 0, got {tracking_time!r}")
             return tt
         with np.errstate(divide="ignore", invalid="ignore"):
             rule = np.where(self.kd > 0.0, np.sqrt(self.kd / self.ki), self.kp / self.ki)

@@ -6,15 +6,11 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from maniplab.control.errors import ControlError
 from maniplab.control.kinematics import inverse_kinematics, pose_error
 from maniplab.control.trajectory import MinJerkMove, Pose
-from maniplab.errors import ManiplabError
 from maniplab.model import AnalyticModel
 from maniplab.spec import ManipulatorSpec
-
-
-class ControlError(ManiplabError):
-    """A control job cannot be set up (bad target, unreachable pose, joint limits)."""
 
 
 def parse_numbers(text: str, what: str, counts: Sequence[int]) -> list[float]:

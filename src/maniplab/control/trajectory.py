@@ -16,15 +16,8 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import ArrayLike
 
+from maniplab.control.errors import TrajectoryError
 from maniplab.control.kinematics import matrix_to_rpy, rotation_exp, rotation_log, rpy_to_matrix
-from maniplab.errors import ManiplabError
-
-
-class TrajectoryError(ManiplabError, ValueError):
-    """A pose, move or path is malformed (wrong number of values, a duration <= 0, no segments).
-
-    It is also a ValueError, which these raised before.
-    """
 
 
 def min_jerk(tau: float) -> tuple[float, float, float]:

@@ -21,10 +21,10 @@ import numpy as np
 
 import maniplab as ml
 from maniplab.atomic import atomic_path, write_text
+from maniplab.demo.erector import MOVE_Q0, acceptance_move, run_case
 from maniplab.demo.report import Section, write_report
 from maniplab.mjcf_gen import write_mjcf
 from maniplab.model.export import export_model
-from maniplab.validation import MOVE_Q0, acceptance_move, run_case
 from maniplab.viz.plots import compare, save_figure
 from maniplab.viz.tracking import tracking_figure
 

@@ -27,8 +27,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from maniplab.numerics import phi1
 from maniplab.friction.params import Friction, FrictionModel
+from maniplab.numerics import phi1
 
 
 def steady_force(friction: Friction, v: np.ndarray) -> np.ndarray:

@@ -147,6 +147,7 @@ def _add_link(parent: mujoco.MjsBody, joint: Joint, at: np.ndarray) -> mujoco.Mj
 
 
 def _set_inertial(body: mujoco.MjsBody, link: Body) -> None:
+    assert link.com is not None and link.inertia is not None  # Body fills in their defaults
     body.explicitinertial = True
     body.mass = link.mass
     body.ipos = list(link.com)

@@ -34,8 +34,8 @@ def validated(cls: type[T] | None = None, /, *, kw_only: bool = False) -> Any:
     as a spec file does. Use it for every parameter section (``@validated class Params: ...``).
     """
 
-    def wrap(c: type[T]) -> type[T]:
-        c = pydantic_dataclass(frozen=True, config=CONFIG, kw_only=kw_only)(c)
+    def wrap(plain: type[T]) -> type[T]:
+        c: Any = pydantic_dataclass(frozen=True, config=CONFIG, kw_only=kw_only)(plain)
         init = c.__dict__["__init__"]
 
         @functools.wraps(init)

@@ -96,7 +96,7 @@ def unwrap(annotation: Any) -> Any:
 def fields_of(cls: type) -> dict[str, Any]:
     """Schema fields of a dataclass, name -> annotation (internal fields left out)."""
     hints = typing.get_type_hints(cls, include_extras=True)
-    return {f.name: hints[f.name] for f in dataclasses.fields(cls)  # type: ignore[arg-type]
+    return {f.name: hints[f.name] for f in dataclasses.fields(cls)
             if not f.metadata.get(INTERNAL)}
 
 
@@ -265,7 +265,7 @@ def _list_problem(node: Any, value: Any) -> str:
     return f"expected a list of {_vector_length(node) or 3} numbers, got {describe(value)}"
 
 
-def problem_text(error: Any, loc: Loc, siblings: Sequence[str], node: Any = None) -> str:  # noqa: C901, PLR0911, PLR0912
+def problem_text(error: Any, loc: Loc, siblings: Sequence[str], node: Any = None) -> str:
     """The problem in words for one pydantic error at ``loc``.
 
     Args:

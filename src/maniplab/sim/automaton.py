@@ -29,7 +29,7 @@ several times faster than numpy, whose cost per call (~0.5 µs) exceeds the arit
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import mujoco
 import numpy as np
@@ -103,7 +103,7 @@ class Automaton:
     """
 
     def __init__(self, joints: Sequence[Joint], model: mujoco.MjModel, data: mujoco.MjData,
-                 dt: float, bristles: dict[int, int]) -> None:
+                 dt: float, bristles: Mapping[int, int]) -> None:
         self.n = len(joints)
         self.model, self.data, self.dt = model, data, dt
         frictions = [j.friction for j in joints]
@@ -120,6 +120,9 @@ class Automaton:
                          for j in self.limits.limited]
         self._bristles: list[tuple[LuGreJoint, int]] = [
             (L, bristles[L.joint]) for L in self.lugre.joints if L.joint in bristles]
+        # MuJoCo factorises the mass matrix of a "simple" dof (a body it found decoupled when
+        # compiling) once, from the armature of that time: for holding to act, none is simple
+        model.dof_simplenum[:] = 0
         self._armature = model.dof_armature.copy()
         self._hold_inertia = HOLD_INERTIA * _largest_inertia(model)
         self._slip_acc = [b / self._hold_inertia for b in self.hybrid.breakaway]

@@ -81,7 +81,7 @@ class PluginCallbacks:
         try:
             xdot = np.asarray(e.plugin.derivatives(x, d.ctrl[i], d.qpos[e.joint], d.qvel[e.joint]),
                               dtype=float)
-        except Exception as exc:  # noqa: BLE001 - reported with the joint and time
+        except Exception as exc:
             raise self._failure(e, "derivatives", exc, d.time) from exc
         if xdot.shape != (e.k,):
             raise PluginError(
@@ -99,7 +99,7 @@ class PluginCallbacks:
         x = d.act[e.adr:e.adr + e.k] if e.k else _EMPTY
         try:
             return float(e.plugin.force(x, d.ctrl[i], d.qpos[e.joint], d.qvel[e.joint]))
-        except Exception as exc:  # noqa: BLE001 - reported with the joint and time
+        except Exception as exc:
             raise self._failure(e, "force", exc, d.time) from exc
 
     @staticmethod

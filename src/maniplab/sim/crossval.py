@@ -15,6 +15,7 @@ from typing import Literal
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from maniplab.actuators.registry import IDEAL_SOURCE
 from maniplab.errors import ManiplabError
 from maniplab.model import AnalyticModel
 from maniplab.sim.errors import InputError
@@ -33,7 +34,7 @@ def ideal(spec: ManipulatorSpec) -> ManipulatorSpec:
     """The arm with an ideal torque/force source on every joint, no friction and no limits."""
     overrides: dict[str, object] = {}
     for joint in spec.joints:
-        overrides[f"joints.{joint.name}.actuator"] = {"type": "torque"}
+        overrides[f"joints.{joint.name}.actuator"] = {"type": IDEAL_SOURCE}
         overrides[f"joints.{joint.name}.friction"] = {"model": "none"}
         overrides[f"joints.{joint.name}.limits"] = None
     return spec.with_overrides(overrides)

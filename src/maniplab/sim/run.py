@@ -11,6 +11,10 @@ from typing import Any
 import numpy as np
 
 from maniplab.errors import ManiplabError
+from maniplab.sim import store
+from maniplab.sim.store import RunFileError
+
+__all__ = ["UNITS", "Run", "RunFileError", "RunShapeError"]
 from maniplab.spec import ManipulatorSpec
 
 #: Units of the standard signals ("joint" means rad for R joints and m for P joints).
@@ -20,10 +24,6 @@ UNITS: dict[str, str] = {
     "mode": "FrictionMode", "ee_pos": "m", "ctrl": "A | N·m | N",
     "tau_limit": "N·m | N", "z": "rad | m",
 }
-
-
-class RunFileError(ManiplabError):
-    """A stored run cannot be read (missing, truncated, corrupt or from an unknown format)."""
 
 
 class RunShapeError(ManiplabError, ValueError):
@@ -85,15 +85,15 @@ class Run:
         """A short name for legends: the run's ``meta['label']`` or the spec's name."""
         return str(self.meta.get("label", self.spec.name))
 
+    def units(self) -> dict[str, str]:
+        """The units of the run's standard signals (see ``UNITS``), name -> unit."""
+        return {k: UNITS[k] for k in self.signals if k in UNITS}
+
     def save(self, path: str | os.PathLike[str]) -> None:
         """Write the run to ``path`` (.npz) atomically; :meth:`load` reads it back bit for bit."""
-        from maniplab.sim import store
-
         store.save(self, Path(path))
 
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> Run:
         """Read a run written by :meth:`save`; raises RunFileError when it cannot."""
-        from maniplab.sim import store
-
-        return store.load(Path(path))
+        return store.load(Path(path), cls)

@@ -49,7 +49,7 @@ class RunSet:
     def __getitem__(self, index: int) -> Run:
         path = self.paths[index]
         if path not in self._runs:
-            self._runs[path] = store.load(path)
+            self._runs[path] = store.load(path, Run)
         return self._runs[path]
 
     def __iter__(self) -> Iterator[Run]:

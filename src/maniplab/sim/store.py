@@ -15,16 +15,24 @@ import json
 import zipfile
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 
 from maniplab.atomic import atomic_path
-from maniplab.errors import SpecError
-from maniplab.sim.run import UNITS, Run, RunFileError
+from maniplab.errors import ManiplabError, SpecError
 from maniplab.spec import ManipulatorSpec
 
+if TYPE_CHECKING:
+    from maniplab.sim.run import Run
+
 FORMAT = "maniplab-run/1"
+
+R = TypeVar("R", bound="Run")
+
+
+class RunFileError(ManiplabError):
+    """A stored run cannot be read (missing, truncated, corrupt or from an unknown format)."""
 
 
 def content_hash(t: np.ndarray, signals: dict[str, np.ndarray], header: dict[str, Any]) -> str:
@@ -46,7 +54,7 @@ def header_of(run: Run) -> dict[str, Any]:
         "format": FORMAT,
         "spec": run.spec.to_dict(),
         "meta": dict(run.meta),
-        "units": {k: UNITS[k] for k in run.signals if k in UNITS},
+        "units": run.units(),
         "versions": {"maniplab": _version("maniplab"), "mujoco": _version("mujoco")},
     }
     header["hash"] = content_hash(np.asarray(run.t), dict(run.signals), header)
@@ -85,9 +93,9 @@ def read_header(path: Path) -> dict[str, Any]:
     return header
 
 
-def load(path: Path) -> Run:
-    """Read a run file and check its content hash; raises RunFileError naming the file and what
-    is wrong (missing, truncated, corrupt, unknown format, invalid spec)."""
+def load(path: Path, cls: type[R]) -> R:
+    """Read a run file as a ``cls`` (a Run) and check its content hash; raises RunFileError naming
+    the file and what is wrong (missing, truncated, corrupt, unknown format, invalid spec)."""
     header = read_header(path)
     try:
         with np.load(path, allow_pickle=False) as data:
@@ -101,7 +109,7 @@ def load(path: Path) -> Run:
         spec = ManipulatorSpec.from_dict(header["spec"], source=str(path))
     except SpecError as exc:
         raise RunFileError(f"{path}: the stored spec is invalid ({exc.problem})") from None
-    return Run(t=t, signals=signals, spec=spec, meta=header.get("meta", {}))
+    return cls(t=t, signals=signals, spec=spec, meta=header.get("meta", {}))
 
 
 _READ_ERRORS = (OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError, json.JSONDecodeError)

@@ -74,7 +74,7 @@ def _adapter(params: type) -> TypeAdapter[Any]:
 
 
 def _has_type_field(params: type) -> bool:
-    return any(f.name == "type" for f in dataclasses.fields(params))  # type: ignore[arg-type]
+    return any(f.name == "type" for f in dataclasses.fields(params))
 
 
 def _validated(value: Any) -> bool:

@@ -60,9 +60,9 @@ from pydantic import (
 )
 
 from maniplab.actuators.torque import TorqueActuator
+from maniplab.atomic import write_text
 from maniplab.errors import SpecError
 from maniplab.friction.params import Friction
-from maniplab.atomic import write_text
 from maniplab.schema import (
     NonNegative,
     Positive,

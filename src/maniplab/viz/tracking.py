@@ -24,12 +24,13 @@ def _reference(trajectory: Trajectory, t: np.ndarray) -> np.ndarray:
 
 
 def _moving_joints(runs: Sequence[Any], limit: int = 4) -> list[int]:
-    """Hydraulic joints that move most (by range of q), at most ``limit``, in joint order."""
+    """Joints with a pressure signal that move most (by range of q), at most ``limit``, in joint
+    order."""
     span = np.zeros(runs[0].spec.n)
     for run in runs:
         q = np.asarray(run.q)
         span = np.maximum(span, q.max(axis=0) - q.min(axis=0))
-    hyd = np.array([j.actuator.type == "hydraulic" for j in runs[0].spec.joints])
+    hyd = np.isfinite(np.asarray(runs[0]["dP"])).any(axis=0)
     order = [int(i) for i in np.argsort(-span) if hyd[i] and span[i] > 1e-6][:limit]
     return sorted(order)
 

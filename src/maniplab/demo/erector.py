@@ -5,7 +5,8 @@ manoeuvre (lift the segment off the feeder, turn it about the tunnel axis to its
 push it home), and how a case is run: the plant starts at rest on the reference's first pose with
 the pressures holding it, the controller (possibly with a mis-estimated payload) runs inside
 ``simulate``, and its log is added to the Run. (A top-level module: it uses both the controller
-and the plant, which do not know each other.)
+and the plant, which do not know each other; it lives beside the erector, in the demo that sits
+on top of both.)
 """
 
 from __future__ import annotations
