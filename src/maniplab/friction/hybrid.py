@@ -27,7 +27,9 @@ def slip_force(v: float, direction: float, coulomb: float, static: float,
     Args:
         v: joint velocity, m/s or rad/s.
         direction: ±1, the sign of the motion when v is exactly 0 (a joint that just broke away).
-        coulomb, static, stribeck_velocity: the spec's Fc, Fs, vs.
+        coulomb: the spec's Coulomb force Fc, N or N·m.
+        static: the spec's stiction above Coulomb Fs, N or N·m.
+        stribeck_velocity: the spec's Stribeck velocity vs, m/s or rad/s.
     """
     r = v / stribeck_velocity
     magnitude = coulomb + static * math.exp(-r * r)

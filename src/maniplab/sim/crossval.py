@@ -46,14 +46,16 @@ def integrate_analytic(spec: ManipulatorSpec, inputs: Mapping[str, Signal], t: n
     """Integrate M(q) q̈ + C q̇ + G = τ(t) with ``scipy.integrate.solve_ivp``.
 
     Args:
-        spec: the arm (its actuators are taken as ideal: τ_j = inputs[j](t)).
+        spec: the arm (its actuators are taken as ideal: ``τ_j = inputs[j](t)``).
         inputs: joint name -> force or torque signal of time, N or N·m (missing joints: 0).
         t: output times, s, shape (N,), starting at the initial time.
         q0: initial positions, shape (n,) (default zeros); the arm starts at rest.
         hold: when given, each input is held constant over [k·hold, (k+1)·hold), s, as a plant
             stepping with dt = hold applies it (the solver restarts at every hold boundary);
             otherwise inputs are continuous.
-        method, rtol, atol: solve_ivp's (``method`` one of :data:`SOLVERS`).
+        method: solve_ivp's method, one of :data:`SOLVERS`.
+        rtol: solve_ivp's relative tolerance.
+        atol: solve_ivp's absolute tolerance.
 
     Returns:
         A Run with q, qd (shape (N, n)) and ee_pos (N, 3); meta records the solver.
