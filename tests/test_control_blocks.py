@@ -71,6 +71,22 @@ def test_valve_inversion_inverts_eq4_exactly_within_limits() -> None:
         if 1 - abs(dP) / Ps < 0.05**2:
             continue
         flow = iv_true * C * np.sqrt(1 - abs(dP) / Ps)  # eq. (4), written out here
+        iv = valve_current(np.array([flow]), np.array([dP]), C, Ps, imax, orifice=False)
+        assert iv[0] == pytest.approx(iv_true, rel=1e-12, abs=1e-15)
+        assert valve_flow(iv, dP, C, Ps, orifice=False)[0] == pytest.approx(flow, rel=1e-12,
+                                                                              abs=1e-20)
+
+
+def test_valve_inversion_inverts_the_orifice_law_exactly_within_limits() -> None:
+    rng = np.random.default_rng(9)
+    C, Ps, imax = 0.005, 20e6, 1.0
+    for _ in range(200):
+        dP = rng.uniform(-1.5, 1.5) * Ps
+        iv_true = rng.uniform(-imax, imax)
+        drop = 1 - np.sign(iv_true) * dP / Ps  # the metering edges' pressure drop, over Ps
+        if drop < 0.05**2:
+            continue
+        flow = iv_true * C * np.sqrt(drop)  # Merritt's orifice law, written out here
         iv = valve_current(np.array([flow]), np.array([dP]), C, Ps, imax)
         assert iv[0] == pytest.approx(iv_true, rel=1e-12, abs=1e-15)
         assert valve_flow(iv, dP, C, Ps)[0] == pytest.approx(flow, rel=1e-12, abs=1e-20)

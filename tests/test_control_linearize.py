@@ -12,7 +12,8 @@ from maniplab.control.linearize import linearize, operating_point
 
 class MujocoPlantODE:
     """ẋ = f(x, u) written out independently: MuJoCo's forward dynamics (constraints off) for the
-    rigid body, slip friction and eq. (4) per joint, as DESIGN.md states them."""
+    rigid body, slip friction and eq. (4) per joint, with the valve law of each (the paper's
+    sqrt(1 - |ΔP|/Ps), or the orifice's sqrt(1 - sign(i_v) ΔP/Ps))."""
 
     def __init__(self, spec: ml.ManipulatorSpec, *, coulomb: bool = True) -> None:
         self.spec = spec
@@ -43,7 +44,8 @@ class MujocoPlantODE:
         for k, i in enumerate(self.hyd):
             a = self.spec.joints[i].actuator
             dx[2 * n + k] = a.bulk_modulus / a.volume * (Q[k] - a.leakage * dP[k] - a.area * qd[i])
-            flow = u[i] * a.valve_gain * np.sqrt(max(0.0, 1 - abs(dP[k]) / a.supply_pressure))
+            drop = abs(dP[k]) if a.valve_law == "paper" else np.sign(u[i] or 1.0) * dP[k]
+            flow = u[i] * a.valve_gain * np.sqrt(max(0.0, 1 - drop / a.supply_pressure))
             dx[2 * n + h + k] = (flow - Q[k]) / a.valve_tau
         return dx
 

@@ -30,12 +30,18 @@ FLOW_SUFFIX = "/flow"
 """Name of a cylinder's flow actuator in the plant's model: ``<joint>/flow``."""
 
 
-def pressure_problem(dP: float, supply_pressure: float) -> str | None:
-    """What is wrong with a pressure beyond PRESSURE_LIMIT × Ps (or NaN), else None."""
-    if abs(dP) <= PRESSURE_LIMIT * supply_pressure:
+def pressure_bound(params: HydraulicActuator) -> float:
+    """|ΔP| beyond which a run is declared unstable: PRESSURE_LIMIT times the larger of the supply
+    and relief pressures, Pa."""
+    return PRESSURE_LIMIT * max(params.supply_pressure, params.relief_pressure or 0.0)
+
+
+def pressure_problem(dP: float, params: HydraulicActuator) -> str | None:
+    """What is wrong with a pressure beyond :func:`pressure_bound` (or NaN), else None."""
+    if abs(dP) <= pressure_bound(params):
         return None
     return (f"ΔP = {dP:.4g} Pa is beyond {PRESSURE_LIMIT:g} times the supply pressure "
-            f"({supply_pressure:.4g} Pa)")
+            f"({params.supply_pressure:.4g} Pa)")
 
 
 class HydraulicBank(NativeGroup):
@@ -56,7 +62,10 @@ class HydraulicBank(NativeGroup):
        mean over the step.
     2. :meth:`finish`: ΔP' = e^(-λ dt) ΔP + (E/V) φ1(λ dt) (∫Q - A Δq), λ = Le E/V, with Δq the
        step's exact displacement; the valve target is then re-evaluated at the mid-step pressure
-       (ΔP + ΔP')/2, ∫Q and ΔP' recomputed, and Q' = Q* + (Q - Q*) e^(-dt/τ).
+       (ΔP + ΔP')/2, ∫Q and ΔP' recomputed, and Q' = Q* + (Q - Q*) e^(-dt/τ). Where the pressure
+       is above a relief valve's setting at either end of the step, the step is taken in the
+       relief's regime, exactly as well: the relief is a further leakage K_r (|ΔP| - p_r), so λ
+       becomes (Le + K_r) E/V and K_r p_r sign(ΔP) is added to the flow.
 
     Measured on a 1-DOF lift against a Radau solution (tests/test_sim_hydraulic.py): relative
     errors 3.8e-4 (ΔP) and 6.5e-6 (position) at dt = 1e-3 s, 9.4e-5 and 1.6e-6 at 5e-4 s (second
@@ -72,7 +81,6 @@ class HydraulicBank(NativeGroup):
         self.lanes = [_Lane.of(a.params, dt) for a in actuators]
         self._ramp = integrator == int(mujoco.mjtIntegrator.mjINT_RK4)
         self._flow = [0.0] * len(self.lanes)
-        self._supply = [a.params.supply_pressure for a in actuators]
 
     @property
     def spring(self) -> list[float]:
@@ -113,13 +121,13 @@ class HydraulicBank(NativeGroup):
         self._bias = model.actuator_biasprm[:, 0]  # a view: b0 of every actuator
         self._act = data.act
         self._before = [
-            (j, a, c.valve_gain, c.inv_supply, c.dt - c.valve_memory, c.valve_memory,
-             c.area, c.leakage, 1.0 / c.dt, c.spring)
+            (j, a, c.valve_gain, c.inv_supply, c.orifice, c.dt - c.valve_memory, c.valve_memory,
+             c.area, c.leakage, 1.0 / c.dt, c.spring, c.relief)
             for j, a, c in zip(self.joints, self._adrs, self.lanes)
         ]
         self._after = [
-            (a, j, c.area, c.valve_gain, c.inv_supply, c.decay, c.gain, c.valve_decay,
-             c.dt - c.valve_memory, c.valve_memory)
+            (a, j, c.area, c.valve_gain, c.inv_supply, c.orifice, c.decay, c.gain, c.valve_decay,
+             c.dt - c.valve_memory, c.valve_memory, c.relief, c.bound)
             for j, a, c in zip(self.joints, self._adrs, self.lanes)
         ]
 
@@ -138,12 +146,14 @@ class HydraulicBank(NativeGroup):
         """
         flows = []
         bias = self._bias
-        for (j, a, gain_v, inv_ps, rest, memory, area, leakage, per_dt, spring), i, fa in zip(
-                self._before, self._flows, self._flow_adrs):
+        for (j, a, gain_v, inv_ps, orifice, rest, memory, area, leakage, per_dt, spring,
+             relief), i, fa in zip(self._before, self._flows, self._flow_adrs):
             p, f = act[a], act[a + 1]
-            flow = valve.flow(u[j], p, gain_v, inv_ps) * rest + f * memory  # ∫Q over the step
+            flow = valve.flow(u[j], p, gain_v, inv_ps, orifice) * rest + f * memory  # ∫Q
             flows.append(flow)
             rate = flow * per_dt - leakage * p
+            if relief is not None:
+                rate -= valve.relief_flow(p, relief.pressure, relief.gain)
             bias[j] = area * p + spring * q[j]
             if self._ramp:  # RK4 sees the flow's pressure rise as a ramp in its stages
                 ctrl[i] = rate
@@ -156,20 +166,35 @@ class HydraulicBank(NativeGroup):
                u: Sequence[float], act1: list[float]) -> tuple[int, str] | None:
         """(ΔP, Q) at the step's end into ``act1``; the flow ramps back to zero."""
         unstable = None
-        for (a, j, area, gain_v, inv_ps, decay, gain, valve_decay, rest, memory), flow, fa in zip(
-                self._after, self._flow, self._flow_adrs):
+        for (a, j, area, gain_v, inv_ps, orifice, decay, gain, valve_decay, rest, memory, relief,
+             bound), flow, fa, actuator in zip(self._after, self._flow, self._flow_adrs,
+                                                self.actuators):
             p, f = act0[a], act0[a + 1]
             swept = area * (q1[j] - q0[j])
             held = decay * p
             mid = 0.5 * (p + held + gain * (flow - swept))  # predicted mid-step ΔP
-            target = valve.flow(u[j], mid, gain_v, inv_ps)
-            p1 = held + gain * (target * rest + f * memory - swept)
+            target = valve.flow(u[j], mid, gain_v, inv_ps, orifice)
+            volume = target * rest + f * memory  # ∫Q over the step
+            p1 = held + gain * (volume - swept)
+            if relief is not None and max(abs(p), abs(p1)) > relief.pressure:
+                side = math.copysign(relief.pressure * relief.gain * self.dt, p1)
+                p1 = relief.decay * p + relief.factor * (volume + side - swept)
             act1[a] = p1
             act1[a + 1] = target + (f - target) * valve_decay
             act1[fa] = 0.0
-            if not abs(p1) * inv_ps <= PRESSURE_LIMIT and unstable is None:
-                unstable = (j, str(pressure_problem(p1, 1.0 / inv_ps)))
+            if not abs(p1) <= bound and unstable is None:
+                unstable = (j, str(pressure_problem(p1, actuator.params)))
         return unstable
+
+
+@dataclasses.dataclass(frozen=True)
+class _Relief:
+    """A relief valve's constants for a step dt: its regime is a leakage Le + K_r."""
+
+    pressure: float     # p_r, Pa
+    gain: float         # K_r, m³/(s Pa)
+    decay: float        # e^(-λ_r dt), λ_r = (Le + K_r) E/V
+    factor: float       # (E/V) φ1(λ_r dt)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -187,14 +212,23 @@ class _Lane:
     valve_memory: float # τ (1 - e^(-dt/τ))
     spring: float       # A² E/V
     dt: float
+    orifice: bool
+    relief: _Relief | None
+    bound: float        # |ΔP| of an unstable run, Pa
 
     @classmethod
     def of(cls, p: HydraulicActuator, dt: float) -> _Lane:
         c = p.bulk_modulus / p.volume
         lam = p.leakage * c
+        relief = None
+        if p.relief_pressure is not None:
+            lam_r = (p.leakage + p.relief_gain) * c
+            relief = _Relief(p.relief_pressure, p.relief_gain, math.exp(-lam_r * dt),
+                             c * phi1(lam_r * dt))
         return cls(
             area=p.area, c=c, leakage=p.leakage, valve_gain=p.valve_gain,
             inv_supply=1.0 / p.supply_pressure, decay=math.exp(-lam * dt),
             gain=c * phi1(lam * dt), valve_decay=math.exp(-dt / p.valve_tau),
             valve_memory=-p.valve_tau * math.expm1(-dt / p.valve_tau), spring=p.area**2 * c, dt=dt,
+            orifice=p.orifice, relief=relief, bound=pressure_bound(p),
         )

@@ -2,10 +2,12 @@
 
 States ΔP (differential pressure, Pa) and Q (valve flow, m³/s); command i_v (valve current, A):
 
-    (V/E) dΔP/dt + Le ΔP + A v = Q                 (cylinder: compressibility, leakage, piston)
-    Q + τ dQ/dt = i_v C sqrt(max(0, 1 - |ΔP|/Ps))  (valve: first-order lag, flow against load)
+    (V/E) dΔP/dt + Le ΔP + Q_r(ΔP) + A v = Q     (cylinder: compressibility, leakage, relief,
+                                                   piston)
+    Q + τ dQ/dt = Q*(i_v, ΔP)                     (valve: first-order lag to its steady flow)
 
-and the joint force is A ΔP (N, or N·m with A in m³/rad).
+with the valve law Q* (orifice or the paper's, :mod:`.valve`) and the relief flow Q_r (0 without a
+relief valve); the joint force is A ΔP (N, or N·m with A in m³/rad).
 """
 
 from __future__ import annotations
@@ -49,12 +51,19 @@ class HydraulicCylinder(ActuatorPlugin):
 
 
     def derivatives(self, x: np.ndarray, u: float, q: float, v: float) -> np.ndarray:
-        """(dΔP/dt, dQ/dt) of eq. (4), Pa/s and m³/s²."""
+        """(dΔP/dt, dQ/dt), Pa/s and m³/s²."""
         p = self.params
         dP, Q = float(x[0]), float(x[1])
-        target = valve.flow(u, dP, p.valve_gain, 1.0 / p.supply_pressure)
-        return np.array([p.bulk_modulus / p.volume * (Q - p.leakage * dP - p.area * v),
+        target = valve.flow(u, dP, p.valve_gain, 1.0 / p.supply_pressure, p.orifice)
+        relief = self._relief(dP)
+        return np.array([p.bulk_modulus / p.volume * (Q - p.leakage * dP - relief - p.area * v),
                          (target - Q) / p.valve_tau])
+
+    def _relief(self, dP: float) -> float:
+        p = self.params
+        if p.relief_pressure is None:
+            return 0.0
+        return valve.relief_flow(dP, p.relief_pressure, p.relief_gain)
 
     def force(self, x: np.ndarray, u: float, q: float, v: float) -> float:
         """A ΔP, N or N·m."""
@@ -65,16 +74,17 @@ class HydraulicCylinder(ActuatorPlugin):
         return np.asarray(self.params.area * x[:, 0], dtype=float)
 
     def check_state(self, x: np.ndarray) -> str | None:
-        """A pressure beyond PRESSURE_LIMIT times the supply pressure (or NaN) is unstable."""
-        return pressure_problem(float(x[0]), self.params.supply_pressure)
+        """A pressure beyond PRESSURE_LIMIT times the supply (or relief) pressure, or NaN, is
+        unstable."""
+        return pressure_problem(float(x[0]), self.params)
 
     def steady(self, force: float, q: float, v: float) -> Steady:
-        """ΔP = f/A, Q = A v + Le ΔP (the piston's flow and the leakage), i_v from the valve law
-        (infinite where |ΔP| >= Ps: no current holds that load)."""
+        """ΔP = f/A, Q = A v + Le ΔP + Q_r (the piston's flow, the leakage and what the relief
+        lets by), i_v from the valve law (infinite where no current passes Q at that load)."""
         p = self.params
         dP = force / p.area
-        Q = p.area * v + p.leakage * dP
-        r = valve.root(dP, 1.0 / p.supply_pressure)
+        Q = p.area * v + p.leakage * dP + self._relief(dP)
+        r = valve.root(Q, dP, 1.0 / p.supply_pressure, p.orifice)
         u = Q / (p.valve_gain * r) if r > 0.0 else math.copysign(math.inf, Q)
         return Steady(np.array([dP, Q]), u)
 
@@ -83,16 +93,16 @@ class HydraulicCylinder(ActuatorPlugin):
         return np.array([force / self.params.area, 0.0])
 
     def jacobians(self, x: np.ndarray, u: float, q: float, v: float) -> Jacobians:
-        """Exact partial derivatives of eq. (4)."""
+        """Exact partial derivatives (the relief's slope K_r above its setting)."""
         p = self.params
         c = p.bulk_modulus / p.volume
-        inv_ps = 1.0 / p.supply_pressure
         dP = float(x[0])
+        du, dp = valve.slopes(u, dP, p.valve_gain, 1.0 / p.supply_pressure, p.orifice)
+        relieving = p.relief_pressure is not None and abs(dP) > p.relief_pressure
+        leak = p.leakage + (p.relief_gain if relieving else 0.0)
         return Jacobians(
-            dxdot_dx=np.array([[-c * p.leakage, c],
-                               [u * p.valve_gain * valve.root_slope(dP, inv_ps) / p.valve_tau,
-                                -1.0 / p.valve_tau]]),
-            dxdot_du=np.array([0.0, p.valve_gain * valve.root(dP, inv_ps) / p.valve_tau]),
+            dxdot_dx=np.array([[-c * leak, c], [dp / p.valve_tau, -1.0 / p.valve_tau]]),
+            dxdot_du=np.array([0.0, du / p.valve_tau]),
             dxdot_dq=np.zeros(2), dxdot_dv=np.array([-c * p.area, 0.0]),
             df_dx=np.array([p.area, 0.0]), df_du=0.0, df_dq=0.0, df_dv=0.0,
         )
@@ -141,4 +151,6 @@ class HydraulicCylinder(ActuatorPlugin):
         """``hydraulic A=... Ps=... MPa``."""
         unit = "m²" if self.joint.prismatic else "m³/rad"
         p = self.params
-        return f"hydraulic A={p.area:g} {unit} Ps={p.supply_pressure / 1e6:g} MPa"
+        relief = f" relief {p.relief_pressure / 1e6:g} MPa" if p.relief_pressure else ""
+        return (f"hydraulic A={p.area:g} {unit} Ps={p.supply_pressure / 1e6:g} MPa "
+                f"{p.valve_law}{relief}")

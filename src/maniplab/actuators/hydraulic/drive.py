@@ -115,6 +115,7 @@ class PressureDrive(ForceDrive):
         self.area = np.array([p.area for p in params])
         self.gain = np.array([p.valve_gain for p in params])
         self.supply = np.array([p.supply_pressure for p in params])
+        self.orifice = np.array([p.orifice for p in params])
         self.min_root = settings.valve_min_root
         g = settings.pressure
         self.loop = PressureLoop(self.area, [p.volume / p.bulk_modulus for p in params],
@@ -133,7 +134,7 @@ class PressureDrive(ForceDrive):
         phi = self.loop.flow(dP_d, dP, qd, qd_ref)
         self.log = {"dP_d": dP_d, "phi": phi}
         return valve_current(phi, dP, self.gain, self.supply, self.limit,
-                             min_root=self.min_root)
+                             min_root=self.min_root, orifice=self.orifice)
 
     def speed_command(self, speed: Array) -> Array:
         """i_v = v A / C, the no-load valve inversion, clipped."""

@@ -1,8 +1,23 @@
-"""The servo-valve's flow law of the paper's eq. (4), and its inversion (the controller's G2).
+"""The servo-valve's flow law, its inversion (the controller's G2) and the relief valve.
 
-Steady flow at valve current i_v and load pressure ΔP: Q* = i_v C sqrt(max(0, 1 - |ΔP|/Ps)), the
-flow's direction following i_v. Every part of maniplab that evaluates the valve (the cylinder
-model, the plant's native update, the linearisation, the controller's inversion) calls these.
+Steady flow Q* into the cylinder at valve current i_v and load pressure ΔP, normalised so that the
+no-load flow is i_v C (C the valve gain, Ps the supply pressure):
+
+- ``orifice`` (the default; Merritt's critically lapped valve): Q* = i_v C sqrt(max(0, 1 -
+  sign(i_v) ΔP / Ps)). Oil flows through the metering edges at the pressure drop across them:
+  pushing against the load (i_v and ΔP of one sign) the drop, and the flow, fall as ΔP nears Ps;
+  letting a load down (opposite signs) the load adds to the drop and the flow rises. A lowered load
+  is thus braked by the valve, and the energy goes to heat;
+- ``paper``: the paper's eq. (4), Q* = i_v C sqrt(max(0, 1 - |ΔP| / Ps)): the flow falls with the
+  load whichever way it acts. Lowering a load, the harder the load pushes oil out the less the
+  valve lets through, i.e. negative damping: kept to reproduce the paper.
+
+A relief valve across the cylinder (``relief_pressure`` p_r) passes Q_r = K_r (|ΔP| - p_r) sign(ΔP)
+above its setting, with K_r sized so that it passes the valve's full no-load flow C i_max at 1 %
+above the setting (:func:`relief_gain`).
+
+Every part of maniplab that evaluates the valve (the cylinder model, the plant's native update,
+the linearisation, the controller's inversion) calls these.
 """
 
 from __future__ import annotations
@@ -12,38 +27,72 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+LAWS = ("orifice", "paper")
+"""The valve laws, by name (``valve_law`` of a hydraulic actuator)."""
 
-def root(dP: float, inv_supply: float) -> float:
-    """sqrt(max(0, 1 - |ΔP|/Ps)): the share of the no-load flow the valve passes at ΔP."""
-    r = 1.0 - abs(dP) * inv_supply
+RELIEF_OVERRIDE = 0.01
+"""The relief passes the valve's full no-load flow this far (relative) above its setting."""
+
+
+def root(current: float, dP: float, inv_supply: float, orifice: bool) -> float:
+    """The share of the no-load flow the valve passes at ΔP: sqrt(max(0, 1 - s ΔP/Ps)) with
+    s = sign(i_v) (orifice law) or s = sign(ΔP) (paper law); ``inv_supply`` = 1/Ps, 1/Pa."""
+    drop = (dP if current >= 0.0 else -dP) if orifice else abs(dP)
+    r = 1.0 - drop * inv_supply
     return math.sqrt(r) if r > 0.0 else 0.0
 
 
-def flow(current: float, dP: float, gain: float, inv_supply: float) -> float:
-    """Steady valve flow i_v C sqrt(max(0, 1 - |ΔP|/Ps)), m³/s (``inv_supply`` = 1/Ps, 1/Pa)."""
-    return current * gain * root(dP, inv_supply)
+def flow(current: float, dP: float, gain: float, inv_supply: float, orifice: bool) -> float:
+    """Steady valve flow Q* = i_v C root, m³/s (see :func:`root`)."""
+    return current * gain * root(current, dP, inv_supply, orifice)
 
 
-def root_slope(dP: float, inv_supply: float) -> float:
-    """d root / dΔP, 1/Pa (0 where the root vanishes)."""
-    r = root(dP, inv_supply)
-    return -math.copysign(1.0, dP) * inv_supply / (2.0 * r) if r > 0.0 else 0.0
+def slopes(current: float, dP: float, gain: float, inv_supply: float,
+           orifice: bool) -> tuple[float, float]:
+    """(∂Q*/∂i_v, ∂Q*/∂ΔP) of :func:`flow`, m³/(s·A) and m³/(s·Pa).
+
+    Where the orifice law's flow is not differentiable in i_v (at i_v = 0 under load, where the
+    pressure drop jumps from one edge to the other) the mean of its two one-sided slopes is given.
+    Where the root vanishes both are 0.
+    """
+    if orifice and current == 0.0:
+        up = root(1.0, dP, inv_supply, True)
+        down = root(-1.0, dP, inv_supply, True)
+        return gain * 0.5 * (up + down), 0.0
+    r = root(current, dP, inv_supply, orifice)
+    if r == 0.0:
+        return 0.0, 0.0
+    sign = (1.0 if current >= 0.0 else -1.0) if orifice else math.copysign(1.0, dP)
+    return gain * r, -current * gain * sign * inv_supply / (2.0 * r)
 
 
-def valve_flow(current: ArrayLike, dP: ArrayLike, gain: ArrayLike,
-               supply_pressure: ArrayLike) -> NDArray[np.float64]:
+def relief_gain(gain: float, current_limit: float, relief_pressure: float) -> float:
+    """K_r, m³/(s·Pa): the relief passes C i_max at (1 + RELIEF_OVERRIDE) p_r."""
+    return gain * current_limit / (RELIEF_OVERRIDE * relief_pressure)
+
+
+def relief_flow(dP: float, relief_pressure: float, relief_gain_: float) -> float:
+    """Q_r = K_r (|ΔP| - p_r) sign(ΔP) above the setting, else 0, m³/s (out of the high side)."""
+    excess = abs(dP) - relief_pressure
+    return math.copysign(relief_gain_ * excess, dP) if excess > 0.0 else 0.0
+
+
+def valve_flow(current: ArrayLike, dP: ArrayLike, gain: ArrayLike, supply_pressure: ArrayLike,
+               *, orifice: ArrayLike = True) -> NDArray[np.float64]:
     """:func:`flow` element-wise over arrays (broadcast), m³/s."""
-    law = np.frompyfunc(lambda i, p, c, ps: flow(i, p, c, 1.0 / ps), 4, 1)
-    return np.asarray(law(current, dP, gain, supply_pressure), dtype=float)
+    law = np.frompyfunc(lambda i, p, c, ps, o: flow(i, p, c, 1.0 / ps, bool(o)), 5, 1)
+    return np.asarray(law(current, dP, gain, supply_pressure, orifice), dtype=float)
 
 
 def valve_current(flow_: ArrayLike, dP: ArrayLike, gain: ArrayLike, supply_pressure: ArrayLike,
-                  current_limit: ArrayLike, *, min_root: float = 0.05) -> NDArray[np.float64]:
+                  current_limit: ArrayLike, *, min_root: float = 0.05,
+                  orifice: ArrayLike = True) -> NDArray[np.float64]:
     """G2: the valve current that passes ``flow_`` at pressure ``dP``, clipped at the limit, A.
 
-    Within the limits (|i_v| <= current_limit and 1 - |ΔP|/Ps >= min_root²) this inverts
-    :func:`flow` exactly; where the root vanishes (|ΔP| -> Ps) no current passes flow, so the root
-    is floored at ``min_root`` to keep the current finite.
+    The current takes the flow's sign, and the root is that of the law for it; within the limits
+    (|i_v| <= current_limit and root >= min_root) this inverts :func:`flow` exactly. Where the
+    root vanishes no current passes flow, so it is floored at ``min_root`` to keep the current
+    finite.
 
     Args:
         flow_: commanded flow Φ, m³/s, shape (k,).
@@ -52,11 +101,12 @@ def valve_current(flow_: ArrayLike, dP: ArrayLike, gain: ArrayLike, supply_press
         supply_pressure: Ps, Pa, (k,).
         current_limit: largest |i_v|, A, (k,).
         min_root: floor of the root (guards the division where it vanishes).
+        orifice: per valve, True for the orifice law, False for the paper's, (k,) or a scalar.
 
     Returns:
         i_v, A, shape (k,).
     """
-    law = np.frompyfunc(lambda p, ps: max(root(p, 1.0 / ps), min_root), 2, 1)
-    r = np.asarray(law(dP, supply_pressure), dtype=float)
+    law = np.frompyfunc(lambda q, p, ps, o: max(root(q, p, 1.0 / ps, bool(o)), min_root), 4, 1)
+    r = np.asarray(law(flow_, dP, supply_pressure, orifice), dtype=float)
     current = np.asarray(flow_, dtype=float) / (np.asarray(gain) * r)
     return np.minimum(np.maximum(current, -np.asarray(current_limit)), current_limit)
