@@ -3,7 +3,7 @@
 MuJoCo picks its OpenGL backend from ``MUJOCO_GL`` when ``mujoco`` is imported. maniplab reads the
 variable again when a context is opened, so a script (or a notebook) that sets it after importing
 maniplab still gets the backend it asked for. Nothing here sets the variable: the CLI's ``main()``
-chooses ``egl`` when the user has not (see ``shared/DESIGN.md``).
+chooses ``egl`` when the user has not (library modules have no side effects at import).
 """
 
 from __future__ import annotations
