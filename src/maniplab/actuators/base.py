@@ -31,6 +31,7 @@ drive                      how a controller makes the joint exert a desired forc
                            cascade's force-to-command inversion); the default inverts
                            ``steady``; an actuator without ``steady`` cannot be driven
 top_speed                  the controller's weighting of the joints, the PID baseline's limits
+stiffness, rates           the step size the arm needs, the controller's default gains
 describe                   ``maniplab info``
 =========================  ====================================================================
 """
@@ -133,8 +134,10 @@ class ActuatorPlugin(abc.ABC):
         command: name of the command, e.g. "iv" (valve current) or "voltage"; it becomes a
             signal of the Run too (the commands of the joints driven this way).
         command_unit: unit of the command.
-        native: a :class:`~maniplab.sim.native.NativeGroup` class that advances all actuators of
-            this class on the plant's native route without MuJoCo's callbacks, or None.
+        native: a :class:`~maniplab.actuators.native.NativeGroup` class that advances all
+            actuators of this class on the plant's native route without MuJoCo's callbacks, or
+            None.
+        spring_name: what :meth:`stiffness` is, in messages ("oil spring").
 
     Args:
         params: an instance of ``Params``.
@@ -147,6 +150,7 @@ class ActuatorPlugin(abc.ABC):
     command: ClassVar[str] = "u"
     command_unit: ClassVar[str] = ""
     native: ClassVar[type[Any] | None] = None
+    spring_name: ClassVar[str] = "actuator spring"
 
     def __init__(self, params: Any, joint: Joint) -> None:
         self.params = params
@@ -194,6 +198,18 @@ class ActuatorPlugin(abc.ABC):
         """:meth:`force` at N samples: x (N, k), u, q, v (N,) -> (N,). Override to vectorise."""
         return np.array([self.force(xi, float(ui), float(qi), float(vi))
                          for xi, ui, qi, vi in zip(x, u, q, v)])
+
+    def stiffness(self, q: float) -> float:
+        """The spring rate of the actuator's states against the joint's motion at q (N/m or
+        N·m/rad; 0 for none): with the arm's inertia it sets the actuators' natural frequencies,
+        which the step size and the controller's gains follow."""
+        return 0.0
+
+    def rates(self, native: bool = False) -> dict[str, float]:
+        """The rates of the actuator's own dynamics, 1/s, by what they are (e.g. a valve's lag
+        1/τ), that the step must resolve: when MuJoCo integrates the states, or (``native``) those
+        the class's native form does not advance exactly."""
+        return {}
 
     def check_state(self, x: np.ndarray) -> str | None:
         """None, or what is wrong when the states (k,) left the range a stable run keeps them in

@@ -26,11 +26,13 @@ Compiler choices, all written to the MJCF:
   absolute perturbation of 1e-12 kg or kg·m² that is invisible at the 1e-9 relative cross-checks.
   Whether each joint still moves real mass is checked after compiling
   (:func:`maniplab.mjcf_gen.checks.check_drives_mass`).
-- ``timestep = 1e-3`` s and the ``RK4`` integrator: the hydraulic states are stiff and smooth.
+- the ``RK4`` integrator (the hydraulic states are stiff and smooth) and the step the arm's
+  actuators need, at most 1 ms (:mod:`~maniplab.mjcf_gen.timestep`).
 """
 
 from __future__ import annotations
 
+import functools
 import os
 
 import mujoco
@@ -39,13 +41,14 @@ import numpy as np
 from maniplab.builtin import resolve_spec
 from maniplab.mjcb import suspended
 from maniplab.mjcf_gen import checks, names, visuals
+from maniplab.mjcf_gen.timestep import DEFAULT, StepLimit, default_step, step_limit
 from maniplab.spec import Body, EndEffector, Joint, ManipulatorSpec, inertia_matrix, model_of
 
 MASS_BOUND = 1e-12
 """``compiler.boundmass`` and ``boundinertia``: kg and kg·m²."""
 
-TIMESTEP = 1e-3
-"""Default ``option.timestep``, s."""
+TIMESTEP = DEFAULT
+"""Default ``option.timestep`` when the arm allows it, s."""
 
 INTEGRATOR = mujoco.mjtIntegrator.mjINT_RK4
 """Default ``option.integrator``."""
@@ -68,6 +71,22 @@ def build_mjspec(spec: SpecLike) -> mujoco.MjSpec:
         SpecError: ``spec`` names no file or built-in, or the file is invalid.
     """
     spec = resolve_spec(spec)
+    s = _arm(spec)
+    s.option.timestep = default_step(arm_step_limit(spec))
+    return s
+
+
+@functools.lru_cache(maxsize=64)
+def arm_step_limit(spec: ManipulatorSpec, native: bool = True) -> StepLimit:
+    """The largest step ``spec``'s actuators allow, in their native forms or integrated by
+    MuJoCo (see :mod:`~maniplab.mjcf_gen.timestep`)."""
+    with suspended():
+        model = checks.compile_checked(_arm(spec), spec)
+    return step_limit(spec, model, native=native)
+
+
+def _arm(spec: ManipulatorSpec) -> mujoco.MjSpec:
+    """The MjSpec of ``spec`` with the default step."""
     s = mujoco.MjSpec()
     s.modelname = spec.name
     _configure(s, spec)

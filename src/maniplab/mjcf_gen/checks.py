@@ -18,13 +18,13 @@ import numpy as np
 
 from maniplab.errors import ModelError
 from maniplab.mjcf_gen.reach import reach
+from maniplab.mjcf_gen.workspace import mass_matrices, poses
 from maniplab.spec import ManipulatorSpec
 
 NO_MASS = 1e-9
 """Threshold per squared reach: kg for a prismatic joint, kg·m² per m² for a rotational one."""
 
 _POSES = 4  # random poses tried besides the home pose
-_SEED = 20050704  # fixed: the check must give the same verdict every time
 
 
 def compile_checked(s: mujoco.MjSpec, spec: ManipulatorSpec) -> mujoco.MjModel:
@@ -53,7 +53,7 @@ def check_drives_mass(model: mujoco.MjModel, spec: ManipulatorSpec) -> None:
     """
     length = max(1.0, reach(spec))
     weight = np.array([length if j.prismatic else 1.0 for j in spec.joints])
-    metrics = [_mass_matrix(model, q) * np.outer(weight, weight) for q in _poses(spec)]
+    metrics = list(mass_matrices(model, poses(spec, _POSES)) * np.outer(weight, weight))
     floor = NO_MASS * length**2
     for i, joint in enumerate(spec.joints):
         if max(float(m[i, i]) for m in metrics) < floor:
@@ -82,26 +82,6 @@ def _check_independent(metrics: list[np.ndarray], floor: float, spec: Manipulato
             f"singular at the home pose and {_POSES} random poses); put a body with mass between "
             f"them or remove one"
         )
-
-
-def _mass_matrix(model: mujoco.MjModel, q: np.ndarray) -> np.ndarray:
-    """M(q), shape (n, n), without running actuator or sensor callbacks."""
-    data = mujoco.MjData(model)
-    data.qpos[:] = q
-    mujoco.mj_kinematics(model, data)
-    mujoco.mj_comPos(model, data)
-    mujoco.mj_crb(model, data)
-    dense = np.zeros((model.nv, model.nv))
-    mujoco.mj_fullM(model, data, dense)
-    return dense
-
-
-def _poses(spec: ManipulatorSpec) -> list[np.ndarray]:
-    rng = np.random.default_rng(_SEED)
-    low = np.array([j.limits[0] if j.limits else -np.pi for j in spec.joints])
-    high = np.array([j.limits[1] if j.limits else np.pi for j in spec.joints])
-    home = np.clip(np.zeros(spec.n), low, high)
-    return [home] + [rng.uniform(low, high) for _ in range(_POSES)]
 
 
 def _where(spec: ManipulatorSpec) -> str:

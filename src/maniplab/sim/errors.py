@@ -21,14 +21,20 @@ class InstabilityError(SimulationError):
         joint: the joint's name, or None when not attributable to one joint.
     """
 
-    def __init__(self, problem: str, *, time: float, joint: str | None, dt: float) -> None:
+    def __init__(self, problem: str, *, time: float, joint: str | None, dt: float,
+                 works: float | None = None, resolved: bool = False) -> None:
+        """``works``: a step known to work; ``resolved``: the step already resolves the arm's
+        dynamics, so the problem is the model's (its text says what to change), not the step's."""
         self.time = time
         self.joint = joint
         where = f" on joint {joint}" if joint else ""
-        super().__init__(
-            f"simulation unstable at t = {time:.6g} s{where}: {problem}; try a smaller step, "
-            f"e.g. dt={dt / 4:g} (it was {dt:g})"
-        )
+        if resolved:
+            advice = ""
+        elif works is None:
+            advice = f"; try a smaller step, e.g. dt={dt / 4:g} (it was {dt:g})"
+        else:
+            advice = f"; use dt <= {works:.3g} s (it was {dt:g})"
+        super().__init__(f"simulation unstable at t = {time:.6g} s{where}: {problem}{advice}")
 
 
 class PluginError(SimulationError):

@@ -49,7 +49,8 @@ from maniplab.actuators import CapabilityError
 from maniplab.builtin import resolve_spec
 from maniplab.friction import FrictionModel
 from maniplab.friction.lugre import LuGreBristles
-from maniplab.mjcf_gen.builder import TIMESTEP
+from maniplab.mjcf_gen.builder import arm_step_limit
+from maniplab.mjcf_gen.timestep import default_step, round_down
 from maniplab.sim import callbacks as _callbacks
 from maniplab.sim.actuation import Actuation
 from maniplab.sim.automaton import Automaton
@@ -60,6 +61,13 @@ from maniplab.sim.state import PlantState
 from maniplab.spec import ManipulatorSpec
 
 ROUTES = ("native", "callbacks")
+
+MAX_SUBSTEPS = 1000
+"""A step that needs more sub-steps than this is refused (the run would take too long)."""
+
+MIN_STEP = 1e-6
+"""An arm whose actuators need a shorter step than this, s, is refused (its parameters are
+almost surely wrong: a simulated second would take hours)."""
 
 SpecLike = ManipulatorSpec | str | os.PathLike[str]
 
@@ -95,7 +103,10 @@ class Plant:
 
     Args:
         spec: the arm (a spec, a spec file or a built-in name).
-        dt: time step, s (default 1e-3: see the accuracy figures in the documentation).
+        dt: time step, s: the commands are held and the state recorded per step. Default: the
+            step the arm's actuators need (1 ms when they allow it; see
+            :mod:`~maniplab.mjcf_gen.timestep`). A step coarser than that is taken in as many
+            MuJoCo sub-steps as it needs.
         integrator: MuJoCo integrator name, "RK4" (default), "Euler", "implicit" or "implicitfast".
         route: "native" (actuators with a native form and LuGre advanced by maniplab between
             MuJoCo's steps, no callbacks; other plugins still use callbacks) or "callbacks" (every
@@ -103,6 +114,8 @@ class Plant:
 
     Attributes:
         spec: the arm.  dt: s.  n: number of joints.
+        step_limit: the largest MuJoCo step the arm's actuators allow, and why.
+        substeps: MuJoCo steps per step (dt / substeps is the model's ``opt.timestep``).
         model: the plant's MuJoCo model as compiled, a constant description of the arm (stepping
             uses a private working copy whose held joints' armature and cylinders' bias
             parameters change from step to step).
@@ -118,20 +131,33 @@ class Plant:
     def __init__(self, spec: SpecLike, *, dt: float | None = None, integrator: str = "RK4",
                  route: str = "native") -> None:
         self.spec = resolve_spec(spec)
-        self.dt = float(dt) if dt is not None else TIMESTEP
-        if not (self.dt > 0.0 and np.isfinite(self.dt)):
-            raise InputError(f"dt must be a positive number of seconds, got {dt!r}")
         if route not in ROUTES:
             raise InputError(f"unknown route {route!r}; expected 'native' or 'callbacks'")
+        self.step_limit = arm_step_limit(self.spec, route == "native")
+        self.dt = float(dt) if dt is not None else default_step(self.step_limit)
+        if not (self.dt > 0.0 and np.isfinite(self.dt)):
+            raise InputError(f"dt must be a positive number of seconds, got {dt!r}")
+        if self.step_limit.dt < MIN_STEP:
+            raise InstabilityError(
+                f"{self.step_limit.describe()}, below the {MIN_STEP:g} s a simulation can afford: "
+                "check that actuator's parameters (an oil volume or valve far off?)",
+                time=0.0, joint=self.step_limit.joint, dt=self.dt, resolved=True)
+        self.substeps = max(1, math.ceil(self.dt / self.step_limit.dt * (1.0 - 1e-9)))
+        if self.substeps > MAX_SUBSTEPS:
+            raise InstabilityError(
+                f"{self.step_limit.describe()}: more than {MAX_SUBSTEPS} sub-steps per step",
+                time=0.0, joint=self.step_limit.joint, dt=self.dt,
+                works=round_down(self.step_limit.dt * MAX_SUBSTEPS))
+        step = self.dt / self.substeps
         self.route = route
         self.integrator = _integrator(integrator)
         self._integrate = _INTEGRATE[self.integrator]
         self.n = self.spec.n
         self.joint_names = self.spec.joint_names
-        self._actuation = Actuation(self.spec, native_route=route == "native", dt=self.dt,
+        self._actuation = Actuation(self.spec, native_route=route == "native", dt=step,
                                     integrator=self.integrator)
         self.actuators = self._actuation.models
-        self.model = build_plant_model(self.spec, dt=self.dt, integrator=self.integrator,
+        self.model = build_plant_model(self.spec, dt=step, integrator=self.integrator,
                                        lugre_integrated=route == "callbacks",
                                        configure=self._actuation.configure)
         self._model = copy.copy(self.model)  # the working copy that steps
@@ -142,7 +168,7 @@ class Plant:
         self.state_names = self.layout.names
         self._actuation.bind(self._model, self.data)
         native_bristles = route == "native"
-        self._automaton = Automaton(self.spec.joints, self._model, self.data, self.dt,
+        self._automaton = Automaton(self.spec.joints, self._model, self.data, step,
                                     self.layout.bristles() if native_bristles else {})
         self._callbacks = self._make_callbacks(lugre, not native_bristles)
         d = self.data  # views into the data, cached: each attribute access makes a new array
@@ -361,7 +387,17 @@ class Plant:
         Args:
             u: commands, one per joint (valve current A, or force N / torque N·m, or a plugin's).
         """
-        u = self._actuation.clip(u)
+        self._u = self._actuation.clip(u)
+        q0, v0, act = self._start()
+        record = self.record
+        record.t, record.q, record.qd, record.act = self.data.time, q0, v0, act
+        record.u, record.mode = self._u, list(self._automaton.modes)
+        self._prepared = True
+
+    def _start(self) -> tuple[list[float], list[float], list[float]]:
+        """The start of one MuJoCo step: forces, holds, the forward pass, the automaton's
+        decisions. Returns the step's (q0, v0, act0)."""
+        u = self._u
         q0, v0, act = self._qpos.tolist(), self._qvel.tolist(), self._act.tolist()
         ctrl = u + self._ctrl_pad
         self._actuation.prepare(q0, act, u, ctrl)
@@ -376,42 +412,44 @@ class Plant:
         if automaton.active:
             fric = automaton.settle(v0, act, fric)
         mujoco.mj_checkAcc(m, d)
-        self._fric = fric
-        self._u = u
-        record = self.record
-        record.t, record.q, record.qd, record.act = d.time, q0, v0, act
-        record.u, record.mode = u, list(automaton.modes)
-        self._prepared = True
+        self._step = (q0, v0, act, fric)
+        return q0, v0, act
 
     def advance(self) -> None:
         """Second half of a step (after :meth:`prepare`, inside :meth:`scope`): integrate dt.
 
         Then the automaton's events at the step's end (held joints put back, stick and limit
-        events), the native groups' and LuGre's states, and the instability checks.
+        events), the native groups' and LuGre's states, and the instability checks; as many times
+        as the step has sub-steps (see :attr:`substeps`), the commands held.
         """
         if not self._prepared:
             raise RuntimeError("Plant.advance() needs a prepare() first")
-        self._integrate(self._model, self.data)
         self._prepared = False
-        record = self.record
-        q0, v0 = record.q, record.qd
+        self._finish()
+        for _ in range(self.substeps - 1):
+            self._start()
+            self._finish()
+
+    def _finish(self) -> None:
+        """The end of one MuJoCo step: integrate, the automaton's events, the actuators."""
+        self._integrate(self._model, self.data)
+        q0, v0, act0, fric = self._step
         q1, v1 = self._qpos.tolist(), self._qvel.tolist()
-        fric = self._fric
         moved, limit = self._automaton.finish(q0, v0, q1, v1, fric)
         if moved:
             self._qpos[:] = q1
             self._qvel[:] = v1
         if not math.isfinite(math.fsum(v1)) or any(w.number for _, w in self._warnings):
             self._unstable_motion()
-        record.fric, record.limit = fric, limit or self._no_limit
-        act0 = record.act
+        self.record.fric, self.record.limit = fric, limit or self._no_limit
         act = self._act.tolist()
         problem = self._actuation.finish(q0, q1, act0, self._u, act)
         self._automaton.advance_bristles(q0, q1, act0, act)
         self._act[:] = act
         if problem is not None:
+            resolved = self._model.opt.timestep <= self.step_limit.dt
             raise InstabilityError(problem[1], time=self.t, joint=self.joint_names[problem[0]],
-                                   dt=self.dt)
+                                   dt=self.dt, resolved=resolved)
 
     @property
     def tau_fric(self) -> np.ndarray:

@@ -40,8 +40,11 @@ def pressure_problem(dP: float, params: HydraulicActuator) -> str | None:
     """What is wrong with a pressure beyond :func:`pressure_bound` (or NaN), else None."""
     if abs(dP) <= pressure_bound(params):
         return None
+    advice = ("" if params.relief_pressure else
+              "; nothing bounds it: give the cylinder a relief_pressure, or check its "
+              "valve_gain, volume and area")
     return (f"ΔP = {dP:.4g} Pa is beyond {PRESSURE_LIMIT:g} times the supply pressure "
-            f"({params.supply_pressure:.4g} Pa)")
+            f"({params.supply_pressure:.4g} Pa){advice}")
 
 
 class HydraulicBank(NativeGroup):

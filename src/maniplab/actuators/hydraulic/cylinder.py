@@ -42,6 +42,7 @@ class HydraulicCylinder(ActuatorPlugin):
     command: ClassVar[str] = "iv"
     command_unit: ClassVar[str] = "A"
     native: ClassVar[type[HydraulicBank]] = HydraulicBank
+    spring_name: ClassVar[str] = "oil spring"
     params: HydraulicActuator
 
     @property
@@ -112,6 +113,26 @@ class HydraulicCylinder(ActuatorPlugin):
         """C i_max / A: the piston speed the valve's full flow gives, rad/s or m/s."""
         p = self.params
         return p.valve_gain * p.current_limit / p.area
+
+    def stiffness(self, q: float) -> float:
+        """The oil spring A²E/V, N/m or N·m/rad."""
+        return self.spring
+
+    def rates(self, native: bool = False) -> dict[str, float]:
+        """The valve-pressure loop sqrt((E/V) g / τ), the frequency of ΔP and Q ringing against
+        each other with the piston held, g = C i_max / (2 Ps r) the valve's flow change per pascal
+        at full current where the law's root r is 1/4 (|ΔP| = 15/16 Ps; it grows without bound as
+        the root vanishes, where the flow does); unless ``native`` (the native update advances
+        them exactly), also the valve's lag 1/τ and the leakage's and relief's pressure decay
+        (Le + K_r) E/V; all 1/s."""
+        p = self.params
+        c = p.bulk_modulus / p.volume
+        slope = p.valve_gain * p.current_limit / (2.0 * p.supply_pressure * 0.25)
+        loop = {"valve-pressure loop": math.sqrt(c * slope / p.valve_tau)}
+        if native:
+            return loop
+        return {**loop, "valve lag": 1.0 / p.valve_tau,
+                "leakage and relief": (p.leakage + p.relief_gain) * c}
 
     @property
     def capacitance(self) -> float:

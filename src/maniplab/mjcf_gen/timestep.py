@@ -1,0 +1,119 @@
+"""The step an arm needs: from its actuators' natural frequencies and rates, over its workspace.
+
+Two kinds of dynamics bound the step of an explicit integrator (MuJoCo's RK4):
+
+- the **springs** of the actuators' states (a cylinder's oil spring A²E/V) against the arm's
+  inertia: coupled through the mass matrix M(q), they ring at the square roots of the eigenvalues
+  of K^½ M(q)⁻¹ K^½ (K the diagonal of the joints' stiffnesses); the largest over the workspace
+  must satisfy ω dt <= :data:`OSCILLATION`;
+- the actuators' own **rates** (a valve's lag 1/τ, a cylinder's leakage and relief, the valve and
+  the pressure ringing against each other): λ dt <= :data:`RATE` too.
+
+The default step is the largest of 1, 2 or 5 × 10^k s that satisfies both, and at most
+:data:`DEFAULT` (1 ms). A plant asked for a coarser step takes as many sub-steps as it needs.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import mujoco
+import numpy as np
+
+from maniplab.mjcf_gen.workspace import mass_matrices, poses
+from maniplab.spec import ManipulatorSpec, model_of
+
+DEFAULT = 1e-3
+"""The step when the arm allows it, s."""
+
+OSCILLATION = 0.5
+"""Largest ω dt for a spring mode: RK4's phase error is then below 3e-4 rad per step."""
+
+RATE = OSCILLATION
+"""Largest λ dt for an actuator's rate (some are frequencies too; RK4 is stable to 2.8)."""
+
+POSES = 48
+"""Random poses over which the spring modes are searched (besides the home pose)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class StepLimit:
+    """The largest step the arm's fastest dynamics allow.
+
+    Attributes:
+        dt: that step, s (inf when nothing limits it).
+        joint: the joint whose actuator sets it (None when nothing does).
+        what: which of its dynamics ("oil spring mode", "valve lag", ...).
+        rate: its frequency or rate, rad/s or 1/s.
+    """
+
+    dt: float
+    joint: str | None = None
+    what: str = ""
+    rate: float = 0.0
+
+    def describe(self) -> str:
+        """E.g. "joint q2's oil spring mode at 414 rad/s needs dt <= 1.21e-3 s"."""
+        if self.joint is None:
+            return "no actuator dynamics limit the step"
+        return (f"joint {self.joint}'s {self.what} at {self.rate:.4g} "
+                f"{'rad/s' if 'mode' in self.what else '1/s'} needs dt <= {self.dt:.3g} s")
+
+
+def step_limit(spec: ManipulatorSpec, model: mujoco.MjModel, *,
+               native: bool = True) -> StepLimit:
+    """The largest step ``spec``'s actuators allow on its compiled MuJoCo ``model``, with their
+    native forms (``native``: the plant's default route) or integrated by MuJoCo."""
+    actuators = [model_of(j) for j in spec.joints]
+    best = StepLimit(math.inf)
+    for j, actuator in enumerate(actuators):
+        exact = native and type(actuator).native is not None
+        for what, rate in actuator.rates(exact).items():
+            if rate > 0.0 and RATE / rate < best.dt:
+                best = StepLimit(RATE / rate, spec.joints[j].name, what, rate)
+    omega, joint = _fastest_mode(spec, model)
+    if omega > 0.0 and OSCILLATION / omega < best.dt:
+        best = StepLimit(OSCILLATION / omega, spec.joints[joint].name,
+                         f"{actuators[joint].spring_name} mode", omega)
+    return best
+
+
+def default_step(limit: StepLimit) -> float:
+    """The largest of 1, 2, 5 × 10^k s within ``limit`` and at most DEFAULT, s."""
+    return DEFAULT if limit.dt >= DEFAULT else round_down(limit.dt)
+
+
+def round_down(dt: float) -> float:
+    """The largest of 1, 2, 5 × 10^k s at most ``dt``."""
+    exponent = math.floor(math.log10(dt))
+    for mantissa in (5.0, 2.0, 1.0):
+        step = mantissa * 10.0**exponent
+        if step <= dt * (1.0 + 1e-12):
+            return step
+    return 10.0**exponent  # pragma: no cover - 1 × 10^floor(log10 dt) is always within dt
+
+
+def hydraulic_frequencies(spec: ManipulatorSpec, model: mujoco.MjModel,
+                          count: int = POSES) -> np.ndarray:
+    """Each joint's spring frequency sqrt(k_j / J_j) at the sampled poses, rad/s, shape
+    (count + 1, n), with J_j = M_jj (the other joints held); 0 where a joint has no spring."""
+    actuators = [model_of(j) for j in spec.joints]
+    qs = poses(spec, count)
+    k = np.array([[a.stiffness(float(x)) for a, x in zip(actuators, q)] for q in qs])
+    return np.sqrt(k / np.diagonal(mass_matrices(model, qs), axis1=1, axis2=2))
+
+
+def _fastest_mode(spec: ManipulatorSpec, model: mujoco.MjModel) -> tuple[float, int]:
+    """The largest spring-mode frequency over the workspace, rad/s, and the joint that takes most
+    part in it."""
+    actuators = [model_of(j) for j in spec.joints]
+    qs = poses(spec, POSES)
+    k = np.array([[a.stiffness(float(x)) for a, x in zip(actuators, q)] for q in qs])
+    if not k.any():
+        return 0.0, 0
+    root = np.sqrt(k)
+    values, vectors = np.linalg.eigh(root[:, :, None] * np.linalg.inv(mass_matrices(model, qs))
+                                     * root[:, None, :])
+    pose = int(np.argmax(values[:, -1]))
+    return math.sqrt(values[pose, -1]), int(np.argmax(np.abs(vectors[pose, :, -1])))
