@@ -29,7 +29,7 @@ import numpy as np
 from typing_extensions import Self
 
 import maniplab as ml
-from maniplab.control.kinematics import inverse_kinematics
+from maniplab.control.ik import inverse_kinematics
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples"))
 from _validation import MOVE_Q0, acceptance_move

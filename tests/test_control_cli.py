@@ -37,7 +37,7 @@ def test_control_command_runs_a_move_and_prints_the_table(tmp_path: Path,
 @pytest.mark.parametrize(("argv", "words"), [
     (["--target", "1,x,2"], "expected comma-separated numbers"),
     (["--target", "1,2"], "expected 3 or 6 finite numbers"),
-    (["--target", "40,0,1"], "beyond its limits"),
+    (["--target", "40,0,1"], "closest pose within the joint limits misses it by"),
     (["--target", "5,0,1,0,0,0.2"], "needs 6 joints"),
     (["--target", "5,0,1", "--start", "0,0"], "--start '0,0': expected 3"),
     (["--target", "5,0,1", "--start", "0,0,5"], "outside its limits"),
@@ -62,8 +62,14 @@ def test_out_of_reach(capsys: pytest.CaptureFixture) -> None:
 def test_plan_move_checks_joint_limits() -> None:
     spec = ml.builtin_spec("crane3")
     # x = 3.5 on the arm's line needs the telescope below its lower limit 0
-    with pytest.raises(ControlError, match="beyond its limits"):
+    with pytest.raises(ControlError, match="misses it by 1.5 m, with joint.s. telescope at"):
         plan_move(spec, [3.5, 0.0, 1.2], start=[0.0, 0.0, 0.5], duration=1.0)
-    move, task, q0 = plan_move(spec, [5.5, 0.0, 1.2], start=None, duration=2.0)
-    assert task == "position" and move.duration == 2.0 and q0.tolist() == [0.0, 0.0, 0.0]
+    plan = plan_move(spec, [5.5, 0.0, 1.2], start=None, duration=2.0)
+    assert plan.task == "position" and plan.q_start.tolist() == [0.0, 0.0, 0.0]
+    # 0.5 m of telescope, whose valve gives 0.051 m/s at full current: a minimum-jerk move's
+    # peak speed 1.875 L / T within 80 % of it needs T >= 23 s
+    assert plan.stretched and plan.move.duration == pytest.approx(1.875 * 0.5 / (0.8 * 0.0004
+                                                                                 / 0.00785),
+                                                                    rel=0.05)
+    assert "joint telescope" in str(plan.note())
     assert parse_numbers(" 1, -2.5 ,3e-1", "x", (3,)) == [1.0, -2.5, 0.3]

@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 import maniplab as ml
+from maniplab.control.ik import inverse_kinematics
 from maniplab.control.kinematics import (
     DampedLeastSquares,
     Kinematics,
     dls_solve,
-    inverse_kinematics,
     matrix_to_rpy,
     pose_error,
     rotation_exp,

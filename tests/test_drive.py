@@ -10,6 +10,7 @@ import pytest
 import maniplab as ml
 from maniplab.cli import main
 from maniplab.control.point_to_point import plan_move
+from maniplab.control.trajectory import MinJerkMove
 
 R, K, N, ETA, V_MAX = 1.0, 0.05, 100.0, 0.9, 48.0
 
@@ -31,8 +32,10 @@ def run_move(spec: ml.ManipulatorSpec, distance: float, duration: float) -> tupl
     q0 = np.array([0.3, 1.2])
     start = model.fk(q0)[:3, 3]
     target = start + distance * np.array([-0.6, 0.0, 0.8])
-    move, task, q_start = plan_move(spec, target.tolist(), start=q0.tolist(), duration=duration,
-                                    model=model)
+    plan = plan_move(spec, target.tolist(), start=q0.tolist(), duration=1.0, model=model)
+    # the move as asked, also faster than the motors can follow (no stretching)
+    move = MinJerkMove(plan.move.start, plan.move.goal, duration, t0=plan.move.t0)
+    task, q_start = plan.task, q0
     controller = ml.CascadeController(spec, move, task=task, model=model)
     run = ml.simulate(spec, controller=controller, duration=move.t0 + move.duration + 1.0,
                       initial={"q": q_start, "dP": "gravity"})
@@ -66,8 +69,9 @@ def test_a_fast_move_saturates_the_motors_at_their_voltage_limit() -> None:
 def test_a_plugin_without_steady_state_or_drive_is_refused() -> None:
     spec = motor_arm({"type": "plugins.dcmotor:Spring", "stiffness": 10.0})
     model = ml.AnalyticModel(spec)
-    move, task, _ = plan_move(spec, model.fk(np.array([0.3, 0.6]))[:3, 3].tolist(),
-                              start=[0.3, 0.6], duration=1.0, model=model)
+    plan = plan_move(spec, model.fk(np.array([0.3, 0.6]))[:3, 3].tolist(), start=[0.3, 0.6],
+                     duration=1.0, model=model)
+    move, task = plan.move, plan.task
     with pytest.raises(ml.actuators.CapabilityError) as caught:
         ml.CascadeController(spec, move, task=task, model=model)
     message = str(caught.value)

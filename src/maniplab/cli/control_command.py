@@ -22,6 +22,11 @@ def add(sub: argparse._SubParsersAction) -> None:
                               "R = Rz Ry Rx) the orientation is controlled too")
     control.add_argument("--duration", required=True, type=float, metavar="T",
                          help="duration of the move, s (the run adds 0.5 s before, --settle after)")
+    control.add_argument("--fit", choices=("stretch", "refuse"), default="stretch",
+                         help="a move faster than the actuators can deliver (each joint's command "
+                              "within 80 %% of its limit along the path, e.g. a valve's flow at "
+                              "the load there): stretch it to the shortest duration that works "
+                              "and say so (default), or refuse it naming the duration that works")
     control.add_argument("--start", metavar="Q1,Q2,...",
                          help="initial joint positions, rad or m (default: all 0, within limits); "
                               "write --start=-0.2,... when the first value is negative")
@@ -37,6 +42,7 @@ def add(sub: argparse._SubParsersAction) -> None:
 
 def _cmd_control(args: argparse.Namespace) -> int:
     import json
+    import sys
 
     import maniplab as ml
     from maniplab.atomic import write_text
@@ -51,7 +57,12 @@ def _cmd_control(args: argparse.Namespace) -> int:
     if not args.settle >= 0.0:
         raise ControlError(f"--settle must be >= 0 s, got {args.settle!r}")
     model = ml.AnalyticModel(spec)
-    move, task, q0 = plan_move(spec, target, start=start, duration=args.duration, model=model)
+    plan = plan_move(spec, target, start=start, duration=args.duration, model=model,
+                     fit_mode=args.fit)
+    move, task, q0 = plan.move, plan.task, plan.q_start
+    note = plan.note()
+    if note:
+        print(f"maniplab control: {note}", file=sys.stderr)
     controller = ml.CascadeController(spec, move, mode=args.mode, task=task, model=model)
     label = f"{args.mode}, {task} task"
     run = ml.simulate(spec, controller=controller, duration=move.t0 + move.duration + args.settle,

@@ -16,12 +16,12 @@ Blocks, each usable on its own:
 from __future__ import annotations
 
 from maniplab.control.cascade import LOG_SIGNALS, CascadeController
+from maniplab.control.ik import IKSolution, inverse_kinematics
 from maniplab.control.inverse_dynamics import InverseDynamics
 from maniplab.control.kinematics import (
     DampedLeastSquares,
     Kinematics,
     dls_solve,
-    inverse_kinematics,
     matrix_to_rpy,
     pose_error,
     rotation_exp,
@@ -41,8 +41,26 @@ from maniplab.control.trajectory import (
 )
 
 __all__ = [
-    "LOG_SIGNALS", "PID", "ArcMove", "CascadeController", "DampedLeastSquares", "Hold",
-    "InverseDynamics", "Kinematics", "MinJerkMove", "Path", "Pose", "Reference", "dls_solve",
-    "inverse_kinematics", "matrix_to_rpy", "min_jerk", "pose_error", "rotation_exp",
-    "rotation_log", "rpy_to_matrix", "segment_placement",
+    "LOG_SIGNALS",
+    "PID",
+    "ArcMove",
+    "CascadeController",
+    "DampedLeastSquares",
+    "Hold",
+    "IKSolution",
+    "InverseDynamics",
+    "Kinematics",
+    "MinJerkMove",
+    "Path",
+    "Pose",
+    "Reference",
+    "dls_solve",
+    "inverse_kinematics",
+    "matrix_to_rpy",
+    "min_jerk",
+    "pose_error",
+    "rotation_exp",
+    "rotation_log",
+    "rpy_to_matrix",
+    "segment_placement",
 ]

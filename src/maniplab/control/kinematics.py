@@ -9,7 +9,6 @@ rotation vectors (axis times angle, rad) in base axes, matching the Jacobian's a
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -195,29 +194,3 @@ class Kinematics:
         s = self.fd_step / speed
         dJ = (self.model.jacobian(q + s * qd) - self.model.jacobian(q - s * qd)) / (2.0 * s)
         return dJ @ qd
-
-
-def inverse_kinematics(model: AnalyticModel, pose: Any, q0: ArrayLike, *, task: str = "pose",
-                       tol: float = 1e-10, max_iter: int = 200) -> np.ndarray:
-    """Joint positions that put the end-effector at ``pose`` (DLS Newton iterations from q0).
-
-    Args:
-        model: the analytic model.
-        pose: target with ``position`` (3,) and ``rotation`` (3, 3) (e.g. a trajectory Pose).
-        q0: initial guess, shape (n,).
-        task: "position" (3 rows) or "pose" (6).
-        tol: stop when the task error's norm is below this (m, rad).
-        max_iter: iteration limit.
-
-    Returns:
-        q, shape (n,) (the last iterate if the tolerance was not reached).
-    """
-    rows = slice(0, 3) if task == "position" else slice(0, 6)
-    q = np.array(q0, dtype=float)
-    for _ in range(max_iter):
-        H = model.fk(q)
-        e = pose_error(pose.position, pose.rotation, H[:3, 3], H[:3, :3])[rows]
-        if float(np.linalg.norm(e)) < tol:
-            break
-        q = q + dls_solve(model.jacobian(q)[rows], e, damping=0.1, threshold=0.05)
-    return q

@@ -1,13 +1,16 @@
-"""Planning a point-to-point Cartesian move: target parsing, reachability and joint-limit checks."""
+"""Planning a point-to-point Cartesian move: target parsing, reach within the joint limits, and
+a duration the actuators can deliver."""
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 
 import numpy as np
 
 from maniplab.control.errors import ControlError
-from maniplab.control.kinematics import inverse_kinematics, pose_error
+from maniplab.control.feasibility import MARGIN, Demand, JointPath, fit
+from maniplab.control.ik import bounds_of, solve
 from maniplab.control.trajectory import MinJerkMove, Pose
 from maniplab.model import AnalyticModel
 from maniplab.spec import ManipulatorSpec
@@ -28,9 +31,48 @@ def parse_numbers(text: str, what: str, counts: Sequence[int]) -> list[float]:
     return values
 
 
+FITS = ("stretch", "refuse")
+"""What :func:`plan_move` does with a move the actuators cannot deliver in its duration."""
+
+
+@dataclasses.dataclass(frozen=True)
+class MovePlan:
+    """A checked point-to-point move.
+
+    Attributes:
+        move: the minimum-jerk move (its duration possibly stretched).
+        task: "position" or "pose".
+        q_start: the joint positions at the start, (n,).
+        q_goal: the joint positions at the target (inverse kinematics within the limits), (n,).
+        asked: the duration asked for, s.
+        demand: what the move asks of its most demanded joint (None when no actuator can say).
+    """
+
+    move: MinJerkMove
+    task: str
+    q_start: np.ndarray
+    q_goal: np.ndarray
+    asked: float
+    demand: Demand | None
+
+    @property
+    def stretched(self) -> bool:
+        """Whether the move was made slower than asked."""
+        return self.move.duration > self.asked
+
+    def note(self) -> str | None:
+        """One line saying why the move was stretched, or None."""
+        if not self.stretched or self.demand is None:
+            return None
+        d = self.demand
+        return (f"move stretched from {self.asked:g} s to {self.move.duration:.3g} s: at "
+                f"{self.asked:g} s joint {d.joint} would need more than {MARGIN:.0%} of its "
+                f"actuator's command range (--fit refuse to refuse such moves instead)")
+
+
 def plan_move(spec: ManipulatorSpec, target: Sequence[float], *, start: Sequence[float] | None,
               duration: float, t0: float = 0.5, model: AnalyticModel | None = None,
-              tol: float = 1e-4) -> tuple[MinJerkMove, str, np.ndarray]:
+              tol: float = 1e-4, fit_mode: str = "stretch") -> MovePlan:
     """A minimum-jerk move from the arm's pose at ``start`` to ``target``, checked.
 
     Args:
@@ -41,21 +83,26 @@ def plan_move(spec: ManipulatorSpec, target: Sequence[float], *, start: Sequence
         duration: the move's duration, s.
         t0: when the move starts, s.
         model: the arm's analytic model.
-        tol: largest acceptable inverse-kinematics residual at the target, m or rad.
+        tol: largest acceptable miss at the target, m (and rad).
+        fit_mode: when the actuators cannot deliver the move in ``duration``: "stretch" it to the
+            shortest duration they can (the plan says so), or "refuse" it (saying which
+            duration works).
 
     Returns:
-        (move, task, q_goal): the move, "position" or "pose", and the joint positions at the
-        target found by inverse kinematics from ``start``.
+        The plan: the move, the task, the start and goal joint positions, the demand.
 
     Raises:
         ControlError: wrong number of values, a task the arm has too few joints for, a target
-            out of reach or beyond a joint limit.
+            out of reach within the joint limits (with the closest miss and the joints at their
+            limits), a path that leaves the workspace, a move too fast (``fit_mode="refuse"``)
+            or a load no actuator holds.
     """
     model = model or AnalyticModel(spec)
     if not duration > 0.0:
         raise ControlError(f"duration must be > 0 s, got {duration!r}")
-    lower = np.array([j.limits[0] if j.limits else -np.inf for j in spec.joints])
-    upper = np.array([j.limits[1] if j.limits else np.inf for j in spec.joints])
+    if fit_mode not in FITS:
+        raise ControlError(f"fit {fit_mode!r}: expected 'stretch' or 'refuse'")
+    lower, upper = bounds_of(model)
     if start is None:
         q0 = np.clip(np.zeros(spec.n), lower, upper)
     else:
@@ -74,19 +121,20 @@ def plan_move(spec: ManipulatorSpec, target: Sequence[float], *, start: Sequence
     start_pose = Pose.from_matrix(model.fk(q0))
     goal = Pose.from_xyzrpy(target) if task == "pose" else Pose(np.asarray(target[:3], float),
                                                                 start_pose.rotation)
-    q_goal = inverse_kinematics(model, goal, q0, task=task, max_iter=500)
-    H = model.fk(q_goal)
-    rows = slice(0, 6 if task == "pose" else 3)
-    miss = float(np.linalg.norm(pose_error(goal.position, goal.rotation, H[:3, 3],
-                                           H[:3, :3])[rows]))
-    if miss > tol:
+    found = solve(model, goal, q0, task=task, tol=tol)
+    if not found.reached:
         unit = "m" if task == "position" else "(m and rad)"
-        raise ControlError(f"target {list(target)} is out of reach of {spec.name} from the start "
-                           f"pose (the closest pose found misses it by {miss:.3g} {unit})")
-    beyond = [(n, v, lo, hi) for n, v, lo, hi in zip(spec.joint_names, q_goal, lower, upper)
-              if not lo - 1e-9 <= v <= hi + 1e-9]
-    if beyond:
-        n, v, lo, hi = beyond[0]
-        raise ControlError(f"target {list(target)} needs joint {n} at {v:.4g}, beyond its limits "
-                           f"[{lo:g}, {hi:g}]")
-    return MinJerkMove(start_pose, goal, duration, t0=t0), task, q0
+        at = (f", with joint(s) {', '.join(found.at_limits)} at their limits"
+              if found.at_limits else "")
+        raise ControlError(f"target {list(target)} is out of reach of {spec.name}: the closest "
+                           f"pose within the joint limits misses it by {found.miss:.3g} {unit}{at}")
+    path = JointPath.of(model, start_pose, goal, q0, task)
+    needed, worst = fit(model, path, duration)
+    if needed > duration and fit_mode == "refuse":
+        assert worst is not None
+        raise ControlError(
+            f"the move is too fast for joint {worst.joint}'s actuator: in {duration:g} s it needs "
+            f"more than {MARGIN:.0%} of its command range; give --duration {needed:.3g} or more, "
+            "or --fit stretch")
+    return MovePlan(MinJerkMove(start_pose, goal, needed, t0=t0), task, q0, found.q, duration,
+                    worst)

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from maniplab.control.cascade import CascadeController
-from maniplab.control.kinematics import inverse_kinematics
+from maniplab.control.ik import inverse_kinematics
 from maniplab.control.metrics import TrackingMetrics, tracking_metrics
 from maniplab.control.trajectory import MinJerkMove, Path, Pose, segment_placement
 from maniplab.model import AnalyticModel
