@@ -1,0 +1,71 @@
+"""MkDocs hook: the command-line reference page, generated at build time from maniplab's parsers.
+
+The page ``reference/cli.md`` is the ``--help`` text of ``maniplab`` and of each of its
+sub-commands, as ``maniplab.cli.build_parser()`` formats it (``format_help()``): it cannot drift
+from the code, and nothing is copied by hand.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+
+from mkdocs.structure.files import File, Files
+
+PAGE = "reference/cli.md"
+WIDTH = "100"  # columns argparse wraps the help text to, whatever the terminal of the build
+
+
+def _subcommands(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:
+    for action in parser._actions:  # argparse keeps its sub-parsers only here
+        if isinstance(action, argparse._SubParsersAction):
+            return dict(action.choices)
+    return {}
+
+
+def _help(parser: argparse.ArgumentParser) -> str:
+    saved = os.environ.get("COLUMNS")
+    os.environ["COLUMNS"] = WIDTH
+    try:
+        return parser.format_help().rstrip()
+    finally:
+        if saved is None:
+            os.environ.pop("COLUMNS", None)
+        else:
+            os.environ["COLUMNS"] = saved
+
+
+def cli_reference() -> str:
+    """The Markdown of the command-line reference."""
+    from maniplab.cli import build_parser
+
+    parser = build_parser()
+    subs = _subcommands(parser)
+    lines = [
+        "# Command line",
+        "",
+        "The help of the `maniplab` command and of each of its sub-commands, as `--help` prints "
+        "it. This page is generated when the site is built, from the parsers in `maniplab.cli`.",
+        "",
+        "Every command accepts a spec file or a built-in name (`erector`, `planar2`, `crane3`) "
+        "wherever it takes SPEC, and answers bad input with one line on stderr and exit status 2 "
+        "(never a traceback). The [user guide](../guide/spec.md) explains what the commands do.",
+        "",
+        "Commands: " + ", ".join(f"[`{name}`](#maniplab-{name})" for name in subs) + ".",
+        "",
+        "## `maniplab`",
+        "",
+        "```text",
+        _help(parser),
+        "```",
+        "",
+    ]
+    for name, sub in subs.items():
+        lines += [f"## `maniplab {name}` {{#maniplab-{name}}}", "", "```text", _help(sub), "```", ""]
+    return "\n".join(lines)
+
+
+def on_files(files: Files, config) -> Files:  # noqa: ANN001 - MkDocs' hook signature
+    """Add the generated page to the site's files."""
+    files.append(File.generated(config, PAGE, content=cli_reference()))
+    return files
