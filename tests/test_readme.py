@@ -1,21 +1,63 @@
-"""The README's example spec is a valid spec and describes what the README says."""
+"""The README is the front door: short, its two commands as they are, every link and image it
+has pointing into the repository, and every headline figure linked to its benchmark page.
+
+(The example spec it used to carry is on the site's spec page now; tests/test_docs.py checks it
+there.)"""
 
 from __future__ import annotations
 
 import re
 from pathlib import Path
 
-import maniplab as ml
+ROOT = Path(__file__).resolve().parents[1]
+README = ROOT / "README.md"
+TWO_COMMANDS = """```sh
+make demo    # creates .venv, installs maniplab, runs the main job on the built-in erector
+make test    # the same set-up, then the whole test suite
+```"""
 
-README = Path(__file__).resolve().parents[1] / "README.md"
+
+def section(title: str) -> str:
+    text = README.read_text(encoding="utf-8")
+    match = re.search(rf"^## {re.escape(title)}\n(.*?)(?=^## |\Z)", text, re.DOTALL | re.MULTILINE)
+    assert match, f"README has no section {title!r}"
+    return match.group(1)
 
 
-def test_readme_example_spec_loads(tmp_path: Path) -> None:
-    block = re.search(r"```yaml\n(.*?)```", README.read_text(), re.DOTALL)
-    assert block, "README has no yaml example"
-    path = tmp_path / "two-link.yaml"
-    path.write_text(block.group(1))
-    spec = ml.load_spec(path)
-    assert spec.joint_names == ("q1", "q2")
-    assert spec.joint("q2").actuator.type == "hydraulic"
-    assert spec.joint("q2").body.com == (0.5, 0.0, 0.0)  # default: middle of a 1 m body
+def test_readme_is_a_front_door() -> None:
+    lines = README.read_text(encoding="utf-8").splitlines()
+    assert 150 <= len(lines) < 250, len(lines)
+    assert TWO_COMMANDS in section("The two commands")
+    for title in ("Gallery", "Five-minute tutorial: from your own spec to a validated controller",
+                  "Documentation", "Headline figures"):
+        section(title)
+
+
+def test_links_and_images_point_into_the_repository() -> None:
+    text = README.read_text(encoding="utf-8")
+    targets = re.findall(r"\]\(([^)\s]+)\)", text)
+    local = [t for t in targets if not re.match(r"[a-z]+://", t)]
+    assert len(local) > 20
+    for target in local:
+        path = (ROOT / target.split("#")[0]).resolve()
+        assert path.is_relative_to(ROOT), f"{target} points outside the repository"
+        assert path.exists(), f"README links to {target}, which does not exist"
+    for image in re.findall(r"!\[[^\]]*\]\(([^)]+)\)", text):
+        assert image.startswith("docs/img/") and (ROOT / image).is_file(), image
+
+
+def test_nothing_points_outside_the_repository() -> None:
+    for path in [README, ROOT / "mkdocs.yml", *sorted((ROOT / "docs").rglob("*.md"))]:
+        text = path.read_text(encoding="utf-8")
+        assert "../shared" not in text and "shared/" not in text, path
+
+
+def test_headline_figures_link_to_their_benchmark_pages() -> None:
+    rows = [line for line in section("Headline figures").splitlines()
+            if line.startswith("| [")]
+    assert len(rows) >= 6
+    for row in rows:
+        link = re.match(r"\| \[[^\]]+\]\((docs/benchmarks/\w+\.md)\)", row)
+        assert link, f"headline figure without its benchmark page: {row}"
+        page = (ROOT / link.group(1)).read_text(encoding="utf-8")
+        assert "python benchmarks/" in page, f"{link.group(1)} gives no command to reproduce it"

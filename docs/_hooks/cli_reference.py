@@ -16,11 +16,11 @@ PAGE = "reference/cli.md"
 WIDTH = "100"  # columns argparse wraps the help text to, whatever the terminal of the build
 
 
-def _subcommands(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:
+def _subparsers(parser: argparse.ArgumentParser) -> argparse._SubParsersAction:
     for action in parser._actions:  # argparse keeps its sub-parsers only here
         if isinstance(action, argparse._SubParsersAction):
-            return dict(action.choices)
-    return {}
+            return action
+    raise LookupError("the maniplab parser has no sub-commands")
 
 
 def _help(parser: argparse.ArgumentParser) -> str:
@@ -40,7 +40,9 @@ def cli_reference() -> str:
     from maniplab.cli import build_parser
 
     parser = build_parser()
-    subs = _subcommands(parser)
+    action = _subparsers(parser)
+    subs = dict(action.choices)
+    summary = {choice.dest: choice.help or "" for choice in action._choices_actions}
     lines = [
         "# Command line",
         "",
@@ -51,7 +53,9 @@ def cli_reference() -> str:
         "wherever it takes SPEC, and answers bad input with one line on stderr and exit status 2 "
         "(never a traceback). The [user guide](../guide/spec.md) explains what the commands do.",
         "",
-        "Commands: " + ", ".join(f"[`{name}`](#maniplab-{name})" for name in subs) + ".",
+        "| command | what it does |",
+        "|---|---|",
+        *(f"| [`maniplab {name}`](#maniplab-{name}) | {summary.get(name, '')} |" for name in subs),
         "",
         "## `maniplab`",
         "",
