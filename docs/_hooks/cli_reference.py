@@ -10,10 +10,11 @@ from __future__ import annotations
 import argparse
 import os
 
+from mkdocs.config.defaults import MkDocsConfig
 from mkdocs.structure.files import File, Files
 
 PAGE = "reference/cli.md"
-WIDTH = "100"  # columns argparse wraps the help text to, whatever the terminal of the build
+WIDTH = "82"  # columns argparse wraps the help text to (the width of a page), whatever the terminal
 
 
 def _subparsers(parser: argparse.ArgumentParser) -> argparse._SubParsersAction:
@@ -46,12 +47,12 @@ def cli_reference() -> str:
     lines = [
         "# Command line",
         "",
-        "The help of the `maniplab` command and of each of its sub-commands, as `--help` prints "
-        "it. This page is generated when the site is built, from the parsers in `maniplab.cli`.",
+        ("The help of the `maniplab` command and of each of its sub-commands, as `--help` prints "
+         "it. This page is generated when the site is built, from the parsers in `maniplab.cli`."),
         "",
-        "Every command accepts a spec file or a built-in name (`erector`, `planar2`, `crane3`) "
-        "wherever it takes SPEC, and answers bad input with one line on stderr and exit status 2 "
-        "(never a traceback). The [user guide](../guide/spec.md) explains what the commands do.",
+        ("Every command accepts a spec file or a built-in name (`erector`, `planar2`, `crane3`) "
+         "wherever it takes SPEC, and answers bad input with one line on stderr and exit status 2 "
+         "(never a traceback). The [user guide](../guide/spec.md) explains what the commands do."),
         "",
         "| command | what it does |",
         "|---|---|",
@@ -69,7 +70,7 @@ def cli_reference() -> str:
     return "\n".join(lines)
 
 
-def on_files(files: Files, config) -> Files:  # noqa: ANN001 - MkDocs' hook signature
+def on_files(files: Files, config: MkDocsConfig) -> Files:
     """Add the generated page to the site's files."""
     files.append(File.generated(config, PAGE, content=cli_reference()))
     return files
