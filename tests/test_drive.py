@@ -50,7 +50,7 @@ def test_dc_motor_joints_get_volts_from_their_steady_state_inversion() -> None:
     assert np.all(np.abs(volts) <= V_MAX)
     assert np.all(np.isnan(run["iv"]))  # no valve anywhere
     # at each controller sample: V = R i_d + K N ω, i_d = τ_d / (η N K), clipped at the limit
-    period = round(1.0 / (ml.ControlSpec().rate * 1e-3))
+    period = round(1.0 / (run.meta["control"]["rate"] * 1e-3))
     k = np.arange(0, len(run.t) - 1, period)
     expected = np.clip(R * run["tau_d"][k] / (ETA * N * K) + K * N * run.qd[k], -V_MAX, V_MAX)
     np.testing.assert_allclose(volts[k], expected, rtol=1e-12, atol=1e-12)

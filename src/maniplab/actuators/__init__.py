@@ -7,6 +7,7 @@ the class in a spec (see :mod:`~maniplab.actuators.registry`).
 
 from maniplab.actuators.base import (
     ActuatorPlugin,
+    Bound,
     CapabilityError,
     Jacobians,
     Steady,
@@ -27,6 +28,7 @@ from maniplab.actuators.torque import TorqueActuator, TorqueSource
 __all__ = [
     "ENTRY_POINT_GROUP",
     "ActuatorPlugin",
+    "Bound",
     "CapabilityError",
     "ForceDrive",
     "HydraulicActuator",

@@ -31,7 +31,8 @@ drive                      how a controller makes the joint exert a desired forc
                            cascade's force-to-command inversion); the default inverts
                            ``steady``; an actuator without ``steady`` cannot be driven
 top_speed                  the controller's weighting of the joints, the PID baseline's limits
-stiffness, rates           the step size the arm needs, the controller's default gains
+stiffness, rates, lag      the step size the arm needs, the controller's default gains
+bounds                     the health verdict of a run (e.g. pressures beyond supply)
 describe                   ``maniplab info``
 =========================  ====================================================================
 """
@@ -73,6 +74,21 @@ FD_STEP = 1e-6
 
 class CapabilityError(ManiplabError):
     """An actuator was asked for something it does not declare (e.g. a controller's drive)."""
+
+
+class Bound(NamedTuple):
+    """A bound a state keeps in a healthy run: ``|x| <= limit``.
+
+    Attributes:
+        state: the state's name.  limit: its largest healthy magnitude.  name: what the bound is
+        ("supply pressure").  hard: a physical cap (a relief valve) that the model enforces, so
+        crossing it means the run is wrong, not only the design.
+    """
+
+    state: str
+    limit: float
+    name: str
+    hard: bool = False
 
 
 class Steady(NamedTuple):
@@ -199,6 +215,12 @@ class ActuatorPlugin(abc.ABC):
         return np.array([self.force(xi, float(ui), float(qi), float(vi))
                          for xi, ui, qi, vi in zip(x, u, q, v)])
 
+    @property
+    def lag(self) -> float:
+        """The time constant between a command and its effect on the force, s (a valve's lag;
+        0 for an ideal source): a controller's force loop must be slower."""
+        return 0.0
+
     def stiffness(self, q: float) -> float:
         """The spring rate of the actuator's states against the joint's motion at q (N/m or
         N·m/rad; 0 for none): with the arm's inertia it sets the actuators' natural frequencies,
@@ -210,6 +232,10 @@ class ActuatorPlugin(abc.ABC):
         1/τ), that the step must resolve: when MuJoCo integrates the states, or (``native``) those
         the class's native form does not advance exactly."""
         return {}
+
+    def bounds(self) -> list[Bound]:
+        """The bounds the states keep in a healthy run (a run's health verdict checks them)."""
+        return []
 
     def check_state(self, x: np.ndarray) -> str | None:
         """None, or what is wrong when the states (k,) left the range a stable run keeps them in

@@ -17,6 +17,7 @@ from maniplab.cli import (
     render_command,
     sim_commands,
     spec_commands,
+    tune_command,
 )
 from maniplab.cli.common import EXIT_BAD_INPUT, Parser
 
@@ -32,7 +33,8 @@ def build_parser() -> argparse.ArgumentParser:
         "file or a built-in spec name (erector, planar2, crane3)."))
     parser.add_argument("--version", action="version", version=f"maniplab {package_version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
-    for module in (spec_commands, sim_commands, control_command, render_command, demo_command):
+    for module in (spec_commands, sim_commands, control_command, tune_command, render_command,
+                   demo_command):
         module.add(sub)
     return parser
 

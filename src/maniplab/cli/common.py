@@ -6,6 +6,11 @@ import argparse
 from typing import NoReturn
 
 EXIT_BAD_INPUT = 2
+"""Bad input: a spec error, a malformed argument, a refused request."""
+
+EXIT_MISSED = 3
+"""The job ran, but its result is wrong: a move that missed its tolerances, a run that failed
+its health check."""
 
 
 class Parser(argparse.ArgumentParser):

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from maniplab.cli.common import spec_argument
+from maniplab.cli.common import EXIT_MISSED, spec_argument
 
 
 def add(sub: argparse._SubParsersAction) -> None:
@@ -15,7 +15,14 @@ def add(sub: argparse._SubParsersAction) -> None:
         description="Move the end-effector to TARGET with a minimum-jerk reference under the "
                     "feedback-linearised cascade controller (or the PID-only baseline), from "
                     "rest with the pressures holding the arm; print the tracking table as JSON "
-                    "and write the run (.npz), the table (.json) and a plot (.png) to DIR.")
+                    "and write the run (.npz), the table (.json) and a plot (.png) to DIR. "
+                    "The controller's gains and rate not given in the spec's control: section "
+                    "are derived from the arm (see 'maniplab tune').",
+        epilog="Exit status: 0 the move met its tolerances and the run is healthy; 2 bad input, "
+               "or a move refused (a target out of reach, a path leaving the workspace, a move "
+               "too fast with --fit refuse); 3 the move missed its tolerances or the run failed "
+               "its health check (one line on stderr names the joint, the cause and the setting "
+               "to change).")
     spec_argument(control)
     control.add_argument("--target", required=True, metavar="X,Y,Z[,ROLL,PITCH,YAW]",
                          help="end-effector position, m, base axes; with roll,pitch,yaw (rad, "
@@ -34,6 +41,9 @@ def add(sub: argparse._SubParsersAction) -> None:
                          help="cascade (feedback linearisation, default) or pid (PID only)")
     control.add_argument("--settle", type=float, default=1.0, metavar="S",
                          help="time simulated after the move, s (default: 1)")
+    control.add_argument("--tolerance", default="2,5", metavar="FINAL,RMS",
+                         help="the move's tolerances, mm: the final position error and the RMS "
+                              "error over the move (default: 2,5)")
     control.add_argument("-o", "--output", type=Path, default=Path("out/control"), metavar="DIR",
                          help="folder for control.npz, control.json, control.png "
                               "(default: out/control)")
@@ -46,32 +56,33 @@ def _cmd_control(args: argparse.Namespace) -> int:
 
     import maniplab as ml
     from maniplab.atomic import write_text
-    from maniplab.control.metrics import tracking_metrics
-    from maniplab.control.point_to_point import ControlError, parse_numbers, plan_move
+    from maniplab.control.move import run_move
+    from maniplab.control.point_to_point import ControlError, parse_numbers
     from maniplab.viz.plots import save_figure
     from maniplab.viz.tracking import tracking_figure
 
     spec = ml.resolve_spec(args.spec)
     target = parse_numbers(args.target, "--target", (3, 6))
+    final, rms = parse_numbers(args.tolerance, "--tolerance", (2,))
     start = parse_numbers(args.start, "--start", (spec.n,)) if args.start else None
     if not args.settle >= 0.0:
         raise ControlError(f"--settle must be >= 0 s, got {args.settle!r}")
-    model = ml.AnalyticModel(spec)
-    plan = plan_move(spec, target, start=start, duration=args.duration, model=model,
-                     fit_mode=args.fit)
-    move, task, q0 = plan.move, plan.task, plan.q_start
-    note = plan.note()
+    result = run_move(spec, target, start=start, duration=args.duration, mode=args.mode,
+                      fit_mode=args.fit, settle=args.settle)
+    note = result.plan.note()
     if note:
         print(f"maniplab control: {note}", file=sys.stderr)
-    controller = ml.CascadeController(spec, move, mode=args.mode, task=task, model=model)
-    label = f"{args.mode}, {task} task"
-    run = ml.simulate(spec, controller=controller, duration=move.t0 + move.duration + args.settle,
-                      initial={"q": q0, "dP": "gravity"}, label=label)
-    metrics = tracking_metrics(run, move, label=label, model=model)
-    table = json.dumps(metrics.to_dict(), indent=2)
+    health = result.health
+    table = json.dumps({**result.metrics.to_dict(), "health": health.to_dict()}, indent=2)
     args.output.mkdir(parents=True, exist_ok=True)
-    run.save(args.output / "control.npz")
+    result.run.save(args.output / "control.npz")
     write_text(args.output / "control.json", table + "\n")
-    save_figure(tracking_figure([run], move), args.output / "control.png")
+    save_figure(tracking_figure([result.run], result.plan.move), args.output / "control.png")
     print(table)
+    for line in health.lines():
+        print(f"maniplab control: {line}", file=sys.stderr)
+    missed = result.missed(final, rms)
+    if missed:
+        print(f"maniplab control: {missed}", file=sys.stderr)
+        return EXIT_MISSED
     return 0

@@ -33,6 +33,7 @@ from maniplab.control.inverse_dynamics import InverseDynamics
 from maniplab.control.kinematics import DampedLeastSquares, Kinematics, matrix_to_rpy, rotation_log
 from maniplab.control.pid import PID
 from maniplab.control.trajectory import Trajectory
+from maniplab.control.tuning import resolve
 from maniplab.model import AnalyticModel
 from maniplab.spec import ControlSpec, ManipulatorSpec, model_of
 
@@ -69,7 +70,8 @@ class CascadeController:
         spec: the arm as the controller knows it (its masses and payload are the controller's
             estimates; the plant may differ).
         trajectory: the Cartesian reference (see ``maniplab.control.trajectory``).
-        gains: controller settings; default the spec's ``control`` section, else the defaults.
+        gains: controller settings; default the spec's ``control`` section; what they leave out
+            is derived from the arm (:mod:`~maniplab.control.tuning`).
         mode: "cascade" (feedback linearisation) or "pid" (the PID-only baseline).
         model: a ready analytic model of ``spec`` (saves building one).
         **settings: fields of :class:`~maniplab.spec.ControlSpec` to replace, e.g. ``rate=500.0``.
@@ -83,16 +85,16 @@ class CascadeController:
                  model: AnalyticModel | None = None, **settings: Any) -> None:
         if mode not in MODES:
             raise ControlError(f"unknown mode {mode!r}; expected 'cascade' or 'pid'")
-        gains = gains or spec.control or ControlSpec()
         if settings:
-            gains = dataclasses.replace(gains, **settings)
+            gains = dataclasses.replace(gains or spec.control or ControlSpec(), **settings)
+        gains = resolve(spec, gains)
         self.spec, self.trajectory, self.gains, self.mode = spec, trajectory, gains, mode
         self.n = spec.n
         self.model = model or AnalyticModel(spec)
         self.kin = Kinematics(self.model)
         self.actuators: list[ActuatorPlugin] = [model_of(j) for j in spec.joints]
-        self.rate = gains.rate
-        self.dt = 1.0 / gains.rate
+        self.rate = _given(gains.rate)
+        self.dt = 1.0 / self.rate
         task = gains.task or ("pose" if spec.n >= 6 else "position")
         self.task = task
         self.rows = np.arange(6 if task == "pose" else 3)
@@ -114,7 +116,9 @@ class CascadeController:
         # baseline: joint speed limit = no-load speed at full command (inf where not limited)
         vmax = np.array([a.top_speed for a in self.actuators])
         b = g.pid_only
-        self.joint_pid = PID(b.kp, b.ki, b.kd, dt=self.dt, size=n, limits=(-vmax, vmax))
+        self.joint_pid = PID(_given(b.kp), _given(b.ki), _given(b.kd), dt=self.dt, size=n,
+                             limits=(-vmax, vmax))
+        self._velocity_gain = _given(b.velocity_gain)
         self._limit = np.concatenate([d.limit for d in self.drives])[
             np.argsort(np.concatenate([d.joints for d in self.drives]))]
         self._nan_n, self._nan_6 = np.full(n, np.nan), np.full(6, np.nan)
@@ -217,9 +221,10 @@ class CascadeController:
         for drive in self.drives:
             j = drive.joints
             speed = drive.speed_command(u[j])
-            if speed is None:  # not speed-controlled: the speed times the joint's inertia
+            if speed is None:  # not a speed source: a velocity loop gives it a force
                 inertia = np.diagonal(self.model.M(q)) if inertia is None else inertia
-                speed = drive.command(u[j] * inertia[j], q[j], qd[j], qd[j],
+                force = inertia[j] * self._velocity_gain * (u[j] - qd[j])
+                speed = drive.command(force, q[j], qd[j], qd[j],
                                       {k: v[j] for k, v in states.items()})
             cmd[j] = speed
         nan6, nan = np.full(6, np.nan), np.full(self.n, np.nan)
@@ -298,6 +303,12 @@ class CascadeController:
             raise ControlError(f"the run already has signals {clash}")
         meta = {**dict(run.meta), "control": self.settings()}
         return type(run)(t=run.t, signals={**run.signals, **extra}, spec=run.spec, meta=meta)
+
+
+def _given(value: float | None) -> float:
+    """A gain that :func:`~maniplab.control.tuning.resolve` has filled in."""
+    assert value is not None, "resolve() fills in every gain"
+    return value
 
 
 def _drives(actuators: list[ActuatorPlugin], *, dt: float,

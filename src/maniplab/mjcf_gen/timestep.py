@@ -72,7 +72,8 @@ def step_limit(spec: ManipulatorSpec, model: mujoco.MjModel, *,
         for what, rate in actuator.rates(exact).items():
             if rate > 0.0 and RATE / rate < best.dt:
                 best = StepLimit(RATE / rate, spec.joints[j].name, what, rate)
-    omega, joint = _fastest_mode(spec, model)
+    modes = spring_modes(spec, model)
+    omega, joint = modes.fastest, modes.joint
     if omega > 0.0 and OSCILLATION / omega < best.dt:
         best = StepLimit(OSCILLATION / omega, spec.joints[joint].name,
                          f"{actuators[joint].spring_name} mode", omega)
@@ -104,16 +105,34 @@ def hydraulic_frequencies(spec: ManipulatorSpec, model: mujoco.MjModel,
     return np.sqrt(k / np.diagonal(mass_matrices(model, qs), axis1=1, axis2=2))
 
 
-def _fastest_mode(spec: ManipulatorSpec, model: mujoco.MjModel) -> tuple[float, int]:
-    """The largest spring-mode frequency over the workspace, rad/s, and the joint that takes most
-    part in it."""
+@dataclasses.dataclass(frozen=True)
+class SpringModes:
+    """The arm's actuator-spring modes over its workspace (all 0 without springs).
+
+    Attributes:
+        slowest: the lowest mode frequency at any sampled pose, rad/s.
+        fastest: the highest, rad/s.
+        joint: the joint that takes most part in the fastest mode (index).
+    """
+
+    slowest: float
+    fastest: float
+    joint: int
+
+
+def spring_modes(spec: ManipulatorSpec, model: mujoco.MjModel) -> SpringModes:
+    """The eigen-frequencies of the actuators' springs K on M(q): sqrt(eig(K^½ M⁻¹ K^½)) over
+    the sampled poses, the joints without a spring left out."""
     actuators = [model_of(j) for j in spec.joints]
     qs = poses(spec, POSES)
     k = np.array([[a.stiffness(float(x)) for a, x in zip(actuators, q)] for q in qs])
-    if not k.any():
-        return 0.0, 0
-    root = np.sqrt(k)
-    values, vectors = np.linalg.eigh(root[:, :, None] * np.linalg.inv(mass_matrices(model, qs))
-                                     * root[:, None, :])
+    sprung = np.flatnonzero(k.any(axis=0))
+    if not sprung.size:
+        return SpringModes(0.0, 0.0, 0)
+    inverse = np.linalg.inv(mass_matrices(model, qs))[:, sprung][:, :, sprung]
+    root = np.sqrt(k[:, sprung])
+    values, vectors = np.linalg.eigh(root[:, :, None] * inverse * root[:, None, :])
     pose = int(np.argmax(values[:, -1]))
-    return math.sqrt(values[pose, -1]), int(np.argmax(np.abs(vectors[pose, :, -1])))
+    joint = int(sprung[np.argmax(np.abs(vectors[pose, :, -1]))])
+    return SpringModes(math.sqrt(max(values[:, 0].min(), 0.0)), math.sqrt(values[pose, -1]),
+                       joint)

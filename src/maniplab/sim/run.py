@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 import os
 from collections.abc import Iterator, Mapping
 from pathlib import Path
@@ -12,6 +13,7 @@ import numpy as np
 
 from maniplab.errors import ManiplabError
 from maniplab.sim import store
+from maniplab.sim.health import Health, assess
 from maniplab.sim.store import RunFileError
 
 __all__ = ["UNITS", "Run", "RunFileError", "RunShapeError"]
@@ -84,6 +86,11 @@ class Run:
     def label(self) -> str:
         """A short name for legends: the run's ``meta['label']`` or the spec's name."""
         return str(self.meta.get("label", self.spec.name))
+
+    @functools.cached_property
+    def health(self) -> Health:
+        """The run's health verdict, computed from its signals (:mod:`~maniplab.sim.health`)."""
+        return assess(self)
 
     def units(self) -> dict[str, str]:
         """The units of the run's standard signals (see ``UNITS``), name -> unit."""

@@ -1,4 +1,8 @@
-"""The controller's settings: the optional ``control:`` section of a spec."""
+"""The controller's settings: the optional ``control:`` section of a spec.
+
+Every gain left out (None) is derived from the arm and its actuators when a controller is made
+(:mod:`maniplab.control.tuning`, ``maniplab tune``); a gain written here wins.
+"""
 
 from __future__ import annotations
 
@@ -18,14 +22,14 @@ class CartesianGains:
     With feedback linearisation each task coordinate obeys ë + kd ė + kp e + ki ∫e = 0.
 
     Attributes:
-        kp: 1/s².  ki: 1/s³.  kd: 1/s.
+        kp: 1/s².  ki: 1/s³.  kd: 1/s.  (None: derived from the arm.)
     """
 
     EXAMPLE: ClassVar[str] = "kp: 400.0, ki: 1000.0, kd: 40.0"
 
-    kp: NonNegative
-    ki: NonNegative = 0.0
-    kd: NonNegative = 0.0
+    kp: NonNegative | None = None
+    ki: NonNegative | None = None
+    kd: NonNegative | None = None
 
 
 @validated
@@ -33,7 +37,7 @@ class PressureGains:
     """Gains of the inner pressure loop (the same on every hydraulic joint, scaled by V/E).
 
     Attributes:
-        bandwidth: ω_P, rad/s: Kp_P = ω_P V/E.
+        bandwidth: ω_P, rad/s: Kp_P = ω_P V/E (None: derived from the arm).
         integral: ω_I, 1/s: Ki_P = ω_I Kp_P (0 for none).
         speed_gain: k_v, dimensionless: flow k_v A (q̇_ref - q̇) from the speed error.
         rate_filter: time constant of the dΔP_d/dt filter, s.
@@ -41,7 +45,7 @@ class PressureGains:
 
     EXAMPLE: ClassVar[str] = "bandwidth: 40.0"
 
-    bandwidth: Positive = 40.0
+    bandwidth: Positive | None = None
     integral: NonNegative = 0.0
     speed_gain: NonNegative = 0.0
     rate_filter: NonNegative = 0.01
@@ -51,24 +55,28 @@ class PressureGains:
 class JointPIDGains:
     """Gains of the PID-only baseline (no feedback linearisation), per joint.
 
-    The PID output is a joint speed (rad/s or m/s) turned into valve current through the valve's
-    no-load gain, i_v = u A / C; on a torque joint the output is scaled by the diagonal of M(q).
-    The defaults are the erector's tuned gains (grid search in examples/pid_baseline.py).
+    The PID output is a joint speed (rad/s or m/s): a valve turns it into current through its
+    no-load gain, i_v = u A / C; an actuator without such a speed command gets a force from a
+    velocity loop, M_jj k_v (u - q̇) (M_jj the joint's inertia at the pose).
 
     Attributes:
-        kp: 1/s.  ki: 1/s².  kd: dimensionless.
+        kp: 1/s.  ki: 1/s².  kd: dimensionless.  velocity_gain: k_v, 1/s.
+        (None: derived from the arm.)
     """
 
-    EXAMPLE: ClassVar[str] = "kp: 3.0, ki: 96.0"
+    EXAMPLE: ClassVar[str] = "kp: 3.0, ki: 2.25"
 
-    kp: NonNegative = 3.0
-    ki: NonNegative = 96.0
-    kd: NonNegative = 0.0
+    kp: NonNegative | None = None
+    ki: NonNegative | None = None
+    kd: NonNegative | None = None
+    velocity_gain: Positive | None = None
 
 
 @validated
 class ControlSpec:
     """The cascade controller's settings (the spec file's optional ``control:`` section).
+
+    Every gain and the rate left at None are derived from the arm (:mod:`maniplab.control.tuning`).
 
     Attributes:
         rate: controller sample rate, Hz.
@@ -91,10 +99,10 @@ class ControlSpec:
 
     EXAMPLE: ClassVar[str] = "rate: 200.0, position: {kp: 400.0, kd: 40.0}"
 
-    rate: Positive = 200.0
+    rate: Positive | None = None
     task: Literal["position", "pose"] | None = None
-    position: CartesianGains = CartesianGains(kp=400.0, ki=1000.0, kd=40.0)
-    orientation: CartesianGains = CartesianGains(kp=400.0, ki=1000.0, kd=40.0)
+    position: CartesianGains = CartesianGains()
+    orientation: CartesianGains = CartesianGains()
     derivative_filter: NonNegative = 0.0
     dls_damping: NonNegative = 0.05
     dls_threshold: NonNegative = 0.05

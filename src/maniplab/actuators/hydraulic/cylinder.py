@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, ClassVar
 import mujoco
 import numpy as np
 
-from maniplab.actuators.base import ActuatorPlugin, Jacobians, Steady, set_command_range
+from maniplab.actuators.base import ActuatorPlugin, Bound, Jacobians, Steady, set_command_range
 from maniplab.actuators.hydraulic import valve
 from maniplab.actuators.hydraulic.bank import HydraulicBank, pressure_problem
 from maniplab.actuators.hydraulic.drive import PressureDrive
@@ -74,6 +74,16 @@ class HydraulicCylinder(ActuatorPlugin):
         """A ΔP at N samples, (N,)."""
         return np.asarray(self.params.area * x[:, 0], dtype=float)
 
+    def bounds(self) -> list[Bound]:
+        """ΔP within the supply pressure, and never beyond the relief's setting plus its
+        override."""
+        p = self.params
+        out = [Bound("dP", p.supply_pressure, "supply pressure")]
+        if p.relief_pressure is not None:
+            out.append(Bound("dP", p.relief_pressure * (1.0 + valve.RELIEF_OVERRIDE),
+                             "relief pressure", hard=True))
+        return out
+
     def check_state(self, x: np.ndarray) -> str | None:
         """A pressure beyond PRESSURE_LIMIT times the supply (or relief) pressure, or NaN, is
         unstable."""
@@ -113,6 +123,11 @@ class HydraulicCylinder(ActuatorPlugin):
         """C i_max / A: the piston speed the valve's full flow gives, rad/s or m/s."""
         p = self.params
         return p.valve_gain * p.current_limit / p.area
+
+    @property
+    def lag(self) -> float:
+        """The valve's time constant τ, s."""
+        return self.params.valve_tau
 
     def stiffness(self, q: float) -> float:
         """The oil spring A²E/V, N/m or N·m/rad."""

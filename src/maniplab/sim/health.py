@@ -1,0 +1,225 @@
+"""The health verdict of a run, computed from its signals: what went wrong, on which joint, and
+what to change.
+
+Every run has one (:attr:`maniplab.Run.health`), open or closed loop, also when loaded from a
+file. The checks:
+
+- **saturation** (closed loop: a run with a controller): a joint's command at its limit for
+  more than SATURATION of the run: the actuator cannot give what the controller asked (a valve's
+  flow, a motor's voltage); in open loop the command is the user's own input;
+- **bounds**: a state beyond a bound its actuator declares (a pressure beyond the supply: a
+  warning, the load drives the oil; beyond a relief's setting: a failure, the run is wrong);
+- **pinned**: a joint held on a limit for more than PINNED of the run while the run commanded it;
+- **still**: a joint commanded with more than STILL_COMMAND of its range for STILL_TIME s that
+  did not move at all (a frozen actuator, or a load it cannot lift);
+- **diverging**: in a closed-loop run (one with the controller's reference ``x_d`` and task
+  error ``e_x``), once the reference has come to rest: the error over the second half of that
+  rest more than DIVERGING times the first half's, and above 1 mm: the loop is unstable.
+
+A finding is a warning or a failure; the verdict is "ok", "warnings" or "failed".
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from maniplab.friction import FrictionMode
+from maniplab.spec import model_of
+
+if TYPE_CHECKING:
+    from maniplab.sim.run import Run
+
+SATURATION = 0.05
+"""Share of the run at the command limit beyond which a joint is reported saturated."""
+
+PINNED = 0.1
+"""Share of the run on a limit beyond which a commanded joint is reported pinned."""
+
+STILL_COMMAND, STILL_TIME = 0.2, 0.2
+"""A joint commanded beyond this share of its range for this long, s, must move."""
+
+DIVERGING = 2.0
+"""A closed-loop error growing by this factor over the reference's rest diverges."""
+
+REST = 0.2
+"""The least time, s, the reference must rest for the divergence check."""
+
+
+class Severity(enum.Enum):
+    """How bad a finding is."""
+
+    WARNING = "warning"
+    FAILURE = "failure"
+
+
+@dataclasses.dataclass(frozen=True)
+class Finding:
+    """One thing that went wrong in a run.
+
+    Attributes:
+        severity: warning or failure.  check: which check found it ("saturation", ...).
+        joint: the joint's name (None when not one joint's).  cause: what happened.
+        advice: the setting to change.
+    """
+
+    severity: Severity
+    check: str
+    joint: str | None
+    cause: str
+    advice: str
+
+    def line(self) -> str:
+        """``joint q2: <cause>; <advice>``: one line for a terminal."""
+        where = f"joint {self.joint}: " if self.joint else ""
+        return f"{where}{self.cause}; {self.advice}"
+
+
+@dataclasses.dataclass(frozen=True)
+class Health:
+    """A run's health verdict: its findings, worst first."""
+
+    findings: tuple[Finding, ...]
+
+    @property
+    def verdict(self) -> str:
+        """"ok", "warnings" or "failed"."""
+        if any(f.severity is Severity.FAILURE for f in self.findings):
+            return "failed"
+        return "warnings" if self.findings else "ok"
+
+    def lines(self) -> list[str]:
+        """One line per finding, with its severity."""
+        return [f"{f.severity.value}: {f.line()}" for f in self.findings]
+
+    def summary(self) -> str:
+        """The verdict and the worst finding, one line."""
+        return self.verdict if not self.findings else f"{self.verdict}: {self.findings[0].line()}"
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-friendly: verdict and findings."""
+        return {"verdict": self.verdict,
+                "findings": [{**dataclasses.asdict(f), "severity": f.severity.value}
+                             for f in self.findings]}
+
+
+def assess(run: Run) -> Health:
+    """The health of ``run`` from its signals (see the module's checks)."""
+    t = np.asarray(run.t, dtype=float)
+    if len(t) < 2:
+        return Health(())
+    hold = np.append(np.diff(t), 0.0)  # each sample's command holds until the next
+    span = float(t[-1] - t[0])
+    findings = [*_saturation(run, hold, span), *_bounds(run), *_pinned(run, hold, span),
+                *_still(run, hold), *_diverging(run)]
+    findings.sort(key=lambda f: f.severity is not Severity.FAILURE)
+    return Health(tuple(findings))
+
+
+def _limits(run: Run) -> np.ndarray:
+    return np.array([np.inf if (limit := model_of(j).command_limit) is None else limit
+                     for j in run.spec.joints])
+
+
+def _saturation(run: Run, hold: np.ndarray, span: float) -> list[Finding]:
+    if "ctrl" not in run or not (run.meta or {}).get("controller"):
+        return []
+    ctrl = np.abs(np.asarray(run["ctrl"]))
+    at = ctrl >= _limits(run) * (1.0 - 1e-9)
+    out = []
+    for j, name in enumerate(run.spec.joint_names):
+        seconds = float(hold[at[:, j]].sum())
+        if seconds > SATURATION * span:
+            out.append(Finding(
+                Severity.WARNING, "saturation", name,
+                f"command at its limit for {seconds:.3g} s ({seconds / span:.0%} of the run)",
+                "the actuator cannot deliver what was asked: a slower move (maniplab control "
+                "--fit stretch), lower gains, or a larger actuator (valve_gain, current_limit)"))
+    return out
+
+
+def _bounds(run: Run) -> list[Finding]:
+    out = []
+    for j, joint in enumerate(run.spec.joints):
+        seen = set()
+        for bound in sorted(model_of(joint).bounds(), key=lambda b: -b.limit):
+            if bound.state not in run or bound.state in seen:
+                continue
+            values = np.abs(np.asarray(run[bound.state])[:, j])
+            peak = float(np.nanmax(values)) if np.isfinite(values).any() else 0.0
+            if peak > bound.limit * (1.0 + 1e-6):
+                seen.add(bound.state)
+                out.append(Finding(
+                    Severity.FAILURE if bound.hard else Severity.WARNING, "bounds", joint.name,
+                    f"|{bound.state}| reached {peak:.4g}, beyond the {bound.name} {bound.limit:.4g}",
+                    "the model lets it through; the run is not to be trusted" if bound.hard else
+                    "the load drives the actuator: a relief valve (relief_pressure) caps it, a "
+                    "slower or gentler move avoids it"))
+    return out
+
+
+def _pinned(run: Run, hold: np.ndarray, span: float) -> list[Finding]:
+    if "mode" not in run or "ctrl" not in run:
+        return []
+    mode, ctrl = np.asarray(run["mode"]), np.asarray(run["ctrl"])
+    on = (mode == FrictionMode.AT_LOWER.value) | (mode == FrictionMode.AT_UPPER.value)
+    out = []
+    for j, name in enumerate(run.spec.joint_names):
+        pushed = on[:, j] & (ctrl[:, j] != 0.0)
+        seconds = float(hold[pushed].sum())
+        if seconds > PINNED * span:
+            out.append(Finding(
+                Severity.WARNING, "pinned", name,
+                f"held on a joint limit for {seconds:.3g} s while commanded",
+                "the motion asks for more range: another target or start, or wider limits"))
+    return out
+
+
+def _still(run: Run, hold: np.ndarray) -> list[Finding]:
+    if "ctrl" not in run:
+        return []
+    ctrl, q = np.abs(np.asarray(run["ctrl"])), np.asarray(run.q)
+    pushed = ctrl >= STILL_COMMAND * _limits(run)
+    out = []
+    for j, name in enumerate(run.spec.joint_names):
+        if float(hold[pushed[:, j]].sum()) < STILL_TIME:
+            continue
+        if float(np.ptp(q[:, j])) == 0.0 and not _on_limit(run, j):
+            out.append(Finding(
+                Severity.FAILURE, "still", name,
+                f"commanded with {STILL_COMMAND:.0%} of its range or more for "
+                f"{hold[pushed[:, j]].sum():.3g} s, it did not move at all",
+                "check the actuator's parameters against the load (area, supply pressure, "
+                "limit) and the joint's friction"))
+    return out
+
+
+def _on_limit(run: Run, j: int) -> bool:
+    if "mode" not in run:
+        return False
+    mode = np.asarray(run["mode"])[:, j]
+    return bool(np.any((mode == FrictionMode.AT_LOWER.value) | (mode == FrictionMode.AT_UPPER.value)))
+
+
+def _diverging(run: Run) -> list[Finding]:
+    if "e_x" not in run or "x_d" not in run:
+        return []
+    reference = np.nan_to_num(np.asarray(run["x_d"]))
+    moving = np.flatnonzero(np.any(np.abs(reference - reference[-1]) > 1e-12, axis=1))
+    start = int(moving[-1]) + 1 if moving.size else 0
+    t = np.asarray(run.t)
+    if t[-1] - t[min(start, len(t) - 1)] < REST:
+        return []
+    error = np.linalg.norm(np.nan_to_num(np.asarray(run["e_x"])[start:, :3]), axis=1)
+    half = len(error) // 2
+    last, before = float(np.max(error[half:])), float(np.max(error[:half]))
+    if last > 1e-3 and last > DIVERGING * before:
+        return [Finding(
+            Severity.FAILURE, "diverging", None,
+            f"the tracking error grows ({1e3 * before:.3g} mm, then {1e3 * last:.3g} mm)",
+            "the loop is unstable: lower the outer gains (control.position) or the pressure "
+            "bandwidth (control.pressure.bandwidth), or run 'maniplab tune'")]
+    return []
