@@ -54,7 +54,7 @@ OUTER = 3.0
 IDEAL_OUTER_STEP = 0.05
 """ω_o h with ideal torque sources (no force loop): the outer loop's share of the rate."""
 
-LOOP_STEP = 0.15
+LOOP_STEP = 0.2
 """ω h at most for the fastest loop (h the controller's sample time)."""
 
 RATE_MIN = 200.0

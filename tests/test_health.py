@@ -1,0 +1,121 @@
+"""The health verdict of a run: each check on a run made to trip it (by the plant, or written
+out as signals), and healthy runs that stay "ok"."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+import maniplab as ml
+from maniplab.cli import main
+from maniplab.control.move import run_move
+from maniplab.control.point_to_point import plan_move
+from maniplab.friction import FrictionMode
+
+ARMS = Path(__file__).parent / "arms"
+
+
+def lift(**actuator: object) -> ml.ManipulatorSpec:
+    params = {"type": "hydraulic", "area": 2e-3, "volume": 2e-3, "valve_gain": 1e-3,
+              "supply_pressure": 20e6, **actuator}
+    return ml.ManipulatorSpec.from_dict({"name": "lift", "joints": [
+        {"name": "lift", "type": "P", "axis": "z", "limits": [-3.0, 0.5],
+         "body": {"mass": 2000.0}, "actuator": params}]})
+
+
+def written(spec: ml.ManipulatorSpec, t: np.ndarray, meta: dict | None = None,
+            **signals: np.ndarray) -> ml.Run:
+    """A run from signals written out here (each (N, n) unless given otherwise)."""
+    n = spec.n
+    base = {"q": np.zeros((len(t), n)), "qd": np.zeros((len(t), n)),
+            "ctrl": np.zeros((len(t), n)), "mode": np.zeros((len(t), n), dtype=np.int8)}
+    return ml.Run(t=t, signals={**base, **signals}, spec=spec, meta=meta or {})
+
+
+def checks(run: ml.Run) -> set[tuple[str, str | None]]:
+    return {(f.check, f.joint) for f in run.health.findings}
+
+
+def test_a_healthy_closed_loop_move_is_ok() -> None:
+    result = run_move(ml.builtin_spec("crane3"), [5.46, 0.6, 1.4], start=[0.0, 0.0, 0.5],
+                      duration=3.0, settle=0.5)
+    assert result.health.verdict == "ok" and result.missed() is None
+
+
+def test_a_move_too_fast_saturates_its_valve() -> None:
+    spec = ml.builtin_spec("crane3")
+    plan = plan_move(spec, [5.46, 0.6, 1.4], start=[0.0, 0.0, 0.5], duration=3.0)
+    fast = ml.MinJerkMove(plan.move.start, plan.move.goal, 0.5, t0=0.2)
+    run = ml.simulate(spec, controller=ml.CascadeController(spec, fast, task="position"),
+                      duration=1.5, initial={"q": plan.q_start, "dP": "gravity"})
+    assert ("saturation", "slew") in checks(run)
+    assert run.health.verdict == "warnings"
+
+
+def test_open_loop_saturation_is_the_users_own_input() -> None:
+    run = ml.simulate(lift(), inputs={"lift": 1.0}, duration=0.2, initial={"dP": "gravity"})
+    assert "saturation" not in {f.check for f in run.health.findings}
+
+
+def test_pressure_beyond_supply_is_a_warning_and_beyond_relief_a_failure() -> None:
+    # the paper's law lowering a load: the oscillation grows past the supply pressure
+    run = ml.simulate(lift(valve_law="paper"), inputs={"lift": ml.signals.step(-0.6, t0=0.1)},
+                      duration=2.0, initial={"dP": "gravity"})
+    found = {f.check: f for f in run.health.findings}
+    assert found["bounds"].joint == "lift" and "supply pressure" in found["bounds"].cause
+    assert run.health.verdict == "warnings"
+    spec = lift(relief_pressure=15e6)
+    t = np.linspace(0.0, 1.0, 101)
+    beyond = written(spec, t, dP=np.full((101, 1), 15.3e6))  # above 1.01 × 15 MPa
+    assert beyond.health.verdict == "failed" and "relief pressure" in beyond.health.summary()
+
+
+def test_a_joint_pinned_on_its_limit() -> None:
+    run = ml.simulate(lift(), inputs={"lift": 0.5}, duration=4.0, initial={"dP": "gravity"})
+    assert np.any(run["mode"] == FrictionMode.AT_UPPER)
+    assert ("pinned", "lift") in checks(run)
+
+
+def test_a_commanded_joint_that_does_not_move_fails() -> None:
+    spec = lift()
+    t = np.linspace(0.0, 1.0, 101)
+    frozen = written(spec, t, ctrl=np.full((101, 1), 0.5))
+    assert frozen.health.verdict == "failed" and ("still", "lift") in checks(frozen)
+    moving = written(spec, t, ctrl=np.full((101, 1), 0.5), q=np.linspace(0, 0.1, 101)[:, None])
+    assert ("still", "lift") not in checks(moving)
+
+
+def test_a_diverging_loop_fails_once_the_reference_rests() -> None:
+    spec = ml.builtin_spec("planar2")
+    t = np.linspace(0.0, 2.0, 201)
+    x_d = np.zeros((201, 6))
+    x_d[:100, 0] = np.linspace(0.0, 0.1, 100)  # moves, then rests at 0.1 from sample 99
+    x_d[100:, 0] = x_d[99, 0]
+    grows = np.zeros((201, 6))
+    grows[:, 0] = 1e-3 * np.exp(2.0 * t)  # 7 mm at 1 s, 55 mm at 2 s
+    run = written(spec, t, x_d=x_d, e_x=grows)
+    assert ("diverging", None) in checks(run) and run.health.verdict == "failed"
+    settles = grows.copy()
+    settles[:, 0] = 5e-3 * np.exp(-3.0 * t)
+    assert "diverging" not in {f.check for f in written(spec, t, x_d=x_d, e_x=settles)
+                               .health.findings}
+
+
+def test_the_health_survives_a_round_trip_through_a_file(tmp_path: Path) -> None:
+    run = ml.simulate(lift(), inputs={"lift": 0.5}, duration=2.0, initial={"dP": "gravity"})
+    run.save(tmp_path / "run.npz")
+    assert ml.Run.load(tmp_path / "run.npz").health == run.health
+
+
+def test_control_exits_3_naming_joint_cause_and_setting(tmp_path: Path, capsys) -> None:
+    spec = ml.builtin_spec("crane3").with_overrides({"control.position.kp": 1e4,
+                                                    "control.position.kd": 1.0})
+    path = tmp_path / "unstable.yaml"
+    spec.dump(path)
+    code = main(["control", str(path), "--target", "5.46,0.6,1.4", "--start", "0,0,0.5",
+                 "--duration", "3", "--settle", "1", "-o", str(tmp_path / "out")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 3
+    assert err[-1].startswith("maniplab control: the move missed its tolerances")
+    assert "control.position" in err[-1] or "joint" in err[-1]
