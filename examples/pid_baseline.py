@@ -2,12 +2,12 @@
 
 The baseline maps the Cartesian error to joint errors with the same damped least squares and
 drives each valve with a joint PID (output: a joint speed, turned into current through the
-valve's no-load gain). Its gains are tuned by a grid search (``--tune``: kp, ki, kd over a
-grid; the smallest RMS error on the acceptance move with a final error under 10 mm, among the
-gains that also keep the segment placement stable); the result is the default
-``control.pid_only`` of the spec. Prints the tables and the RMS ratios.
+valve's no-load gain). Its gains are those derived from the arm (``maniplab tune``); ``--tune``
+runs a grid search instead (kp, ki, kd over a grid; the smallest RMS error on the acceptance move
+with a final error under 10 mm, among the gains that also keep the segment placement stable), to
+compare the rule with the best gains for this one arm. Prints the tables and the RMS ratios.
 
-    python examples/pid_baseline.py -o out/examples          # compare with the tuned gains
+    python examples/pid_baseline.py -o out/examples          # with the derived gains
     python examples/pid_baseline.py -o out/examples --tune   # redo the grid search first
 """
 
@@ -33,6 +33,7 @@ from _validation import (
 )
 
 import maniplab as ml
+from maniplab.control.tuning import resolve
 from maniplab.spec import JointPIDGains
 
 GRID = {"kp": (1.0, 2.0, 3.0, 4.0, 6.0), "ki": (16.0, 32.0, 64.0, 96.0, 128.0, 192.0, 256.0),
@@ -93,7 +94,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     model = ml.AnalyticModel(spec)
     move = acceptance_move(model, short=args.short)
     path = placement_path(model, short=args.short)
-    gains = tune(spec, model, move, path, args.output) if args.tune else ml.ControlSpec().pid_only
+    gains = tune(spec, model, move, path, args.output) if args.tune else resolve(spec).pid_only
     print(f"PID-only gains: kp={gains.kp:g} /s, ki={gains.ki:g} /s², kd={gains.kd:g}")
     cases = [run_case(spec, move, MOVE_Q0, label="cascade", task="position", model=model),
              run_case(spec, move, MOVE_Q0, label="PID only", mode="pid", task="position",

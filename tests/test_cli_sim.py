@@ -65,6 +65,7 @@ def test_sweep_runs_compare_pipeline(capsys, tmp_path: Path) -> None:
     code, out, _ = run_cli(capsys, "compare", *map(str, files), "--signals", "q,qd",
                            "-o", str(figure))
     assert code == 0 and figure.read_text().count("payload=") >= 4
+    assert [line.split(": ", 1)[1] for line in out.splitlines()[1:]] == ["ok"] * 4  # verdicts
 
 
 def test_crossval_prints_a_tiny_deviation(capsys, tmp_path: Path) -> None:

@@ -10,7 +10,8 @@ import pytest
 import maniplab as ml
 from maniplab.actuators.hydraulic import PressureDrive, PressureLoop, valve_current, valve_flow
 from maniplab.control.inverse_dynamics import InverseDynamics
-from maniplab.spec import ControlSpec, model_of
+from maniplab.control.tuning import resolve
+from maniplab.spec import model_of
 
 
 @pytest.fixture(scope="module")
@@ -52,7 +53,7 @@ def test_domain_transformation_divides_by_area() -> None:
     spec = ml.builtin_spec("erector").with_overrides({"joints.q4.actuator": {"type": "torque"}})
     hydraulic = [0, 1, 2, 4, 5]
     drive = PressureDrive([model_of(spec.joints[j]) for j in hydraulic], hydraulic, dt=5e-3,
-                          settings=ControlSpec())
+                          settings=resolve(spec))
     tau = np.arange(1.0, 7.0) * 1e3
     zeros = np.zeros(5)
     drive.command(tau[hydraulic], zeros, zeros, zeros, {"dP": zeros})

@@ -97,7 +97,7 @@ def test_a_target_out_of_reach_exits_2_with_the_closest_miss(tmp_path: Path, cap
 
 
 def test_a_move_too_fast_is_refused_with_a_duration_that_works(tmp_path: Path, capsys) -> None:
-    spec, start, target, _ = case("gantry")
+    _spec, start, target, _ = case("gantry")
     args = ["control", MOVES["gantry"][0], f"--start={','.join(map(str, start))}",
             "--target", ",".join(map(str, target)), "-o", str(tmp_path)]
     assert main([*args, "--duration", "8", "--fit", "refuse"]) == 2

@@ -166,6 +166,8 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     joints = [j.strip() for j in args.joints.split(",")] if args.joints else None
     save_figure(compare(runs, signals=signals, joints=joints), args.output)
     print(f"wrote {args.output} ({len(runs)} runs, signals {', '.join(signals)})")
+    for path, run in zip(args.runs, runs):
+        print(f"{path}: {run.health.summary()}")
     return 0
 
 

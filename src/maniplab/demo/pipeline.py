@@ -188,8 +188,8 @@ class Demo:
             mode: {"run": f"runs/closed_loop_{mode}.npz", "window_s": list(m.window),
                    "rms_error_mm": m.rms_error_mm, "final_error_mm": m.final_error_mm,
                    "peak_dP_MPa": m.peak_dP_MPa, "peak_iv_A": m.peak_iv_A,
-                   "real_time_factor": rtf}
-            for mode, (_, m, rtf) in self.closed.items()}
+                   "real_time_factor": rtf, "health": run.health.to_dict()}
+            for mode, (run, m, rtf) in self.closed.items()}
         self.figures["closed_loop"]["move"] = {
             "start_m": move.start.position.tolist(), "goal_m": move.goal.position.tolist(),
             "t0_s": move.t0, "duration_s": move.duration, "profile": "minimum jerk"}
@@ -203,10 +203,12 @@ class Demo:
             "Closed-loop control",
             f"The segment was moved {length:.2f} m in {move.duration:g} s along a minimum-jerk "
             f"path by the paper's cascade (Cartesian PID, feedback linearisation, pressure loop, "
-            f"valve inversion) and by a tuned PID-only baseline; feedback linearisation tracks "
-            f"{ratio:.1f}x more accurately.",
+            f"valve inversion) and by the PID-only baseline, both with gains derived from the "
+            f"arm (maniplab tune); feedback linearisation tracks {ratio:.1f}x more accurately.",
             figures=rows + [("closed-loop simulation speed",
-                             f"{self.closed['cascade'][2]:.1f}x real time")],
+                             f"{self.closed['cascade'][2]:.1f}x real time")]
+            + [(f"health, {mode}", run.health.summary())
+               for mode, (run, _, _) in self.closed.items()],
             images=[image]))
 
     def crossval(self) -> None:
