@@ -80,9 +80,11 @@ class Bound(NamedTuple):
     """A bound a state keeps in a healthy run: ``|x| <= limit``.
 
     Attributes:
-        state: the state's name.  limit: its largest healthy magnitude.  name: what the bound is
-        ("supply pressure").  hard: a physical cap (a relief valve) that the model enforces, so
-        crossing it means the run is wrong, not only the design.
+        state: the state's name.
+        limit: its largest healthy magnitude.
+        name: what the bound is ("supply pressure").
+        hard: a physical cap (a relief valve) that the model enforces: crossing it means the run
+            is wrong, not only the design.
     """
 
     state: str

@@ -64,7 +64,8 @@ class ForceDrive(abc.ABC):
 
         Args:
             force: desired joint forces, N or N·m, (k,).
-            q, qd: measured joint positions and velocities, (k,).
+            q: measured joint positions, (k,).
+            qd: measured joint velocities, (k,).
             qd_ref: the reference joint velocities, (k,).
             states: the measured actuator states by name (e.g. ``dP``), each (k,).
         """

@@ -351,7 +351,9 @@ def segment_placement(pick: Pose, *, lift: float = 0.3, ring_angle: float = 0.3,
 
     Args:
         pick: the segment's pose on the feeder (the start).
-        lift, ring_angle, push: m, rad, m.
+        lift: the lift off the feeder, m.
+        ring_angle: the turn about the tunnel axis, rad.
+        push: the push home, m.
         durations: the three move durations, s.
         dwell: hold between moves, s.
         up: lift direction (against gravity), (3,).
