@@ -1,5 +1,5 @@
-"""The actuator models on their own: eq. (4) of the hydraulic cylinder, the native cylinder
-update against exact solutions, the torque source, the plugin interface's defaults."""
+"""The actuator models on their own: eq. (4) of the hydraulic cylinder in Python and as MuJoCo's
+engine plugin (C), the torque source, the plugin interface's defaults."""
 
 from __future__ import annotations
 
@@ -8,9 +8,11 @@ import math
 import mujoco
 import numpy as np
 import pytest
+from scipy.optimize import brentq
 
 import maniplab as ml
-from maniplab.actuators.hydraulic import HydraulicBank, HydraulicCylinder
+from maniplab.actuators.hydraulic import HydraulicCylinder
+from maniplab.actuators.plugin_mjcf import activate_plugins, set_plugin
 from maniplab.actuators.torque import TorqueSource
 from maniplab.numerics import phi1
 
@@ -40,53 +42,78 @@ def test_phi1() -> None:
         assert phi1(x) == pytest.approx(expected, rel=1e-12)
 
 
-def one_cylinder_bank(params: ml.HydraulicActuator, dt: float
-                      ) -> tuple[HydraulicBank, mujoco.MjModel, list[float]]:
-    """The bank on a one-joint MuJoCo model of its own: (bank, model, a zero ctrl list)."""
+def one_cylinder_model(params: ml.HydraulicActuator, mass: float = 1.0) -> mujoco.MjModel:
+    """A one-joint MuJoCo model (no gravity) whose actuator is the cylinder's engine plugin."""
     joint = ml.Joint(name="p", type="P", axis="z", actuator=params)
     s = mujoco.MjSpec()
-    body = s.worldbody.add_body(name="b", mass=1.0, inertia=[1.0, 1.0, 1.0])
+    s.option.gravity = [0.0, 0.0, 0.0]
+    body = s.worldbody.add_body(name="b", mass=mass, inertia=[1.0, 1.0, 1.0])
     body.add_joint(name="p", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0.0, 0.0, 1.0])
-    s.add_actuator(name="p", target="p", trntype=mujoco.mjtTrn.mjTRN_JOINT)
-    HydraulicCylinder(params, joint).configure_mjcf(s.actuators[0])
-    bank = HydraulicBank([HydraulicCylinder(params, joint)], [0], dt=dt,
-                         integrator=int(mujoco.mjtIntegrator.mjINT_RK4))
-    bank.configure(s)
-    model = s.compile()
-    bank.bind(model, mujoco.MjData(model))
-    return bank, model, [0.0] * model.nu
+    act = s.add_actuator(name="p", target="p", trntype=mujoco.mjtTrn.mjTRN_JOINT)
+    cylinder = HydraulicCylinder(params, joint)
+    cylinder.configure_mjcf(act)
+    set_plugin(s, act, cylinder.mujoco_plugin())
+    activate_plugins(s)
+    return s.compile()
 
 
-def test_bank_is_exact_for_a_held_piston_under_constant_flow() -> None:
-    """With Δq = 0, a constant valve target and |ΔP| << Ps, one update of any length is exact:
-    ΔP' = e^(-λ dt) ΔP + (Q/Le)(1 - e^(-λ dt)), λ = Le E/V, and the valve's Q' too."""
-    big = ml.HydraulicActuator(**{**CYLINDER.__dict__, "supply_pressure": 1e30})
-    for dt in (1e-3, 0.05):
-        bank, _, ctrl = one_cylinder_bank(big, dt)
-        target = 0.4 * 1e-3
-        act = [1e5, target, 0.0]  # ΔP, Q at the valve's steady flow; the flow ramp
-        bank.prepare([0.0], act, [0.4], ctrl)
-        new = list(act)
-        assert bank.finish([0.0], [0.0], act, [0.4], new) is None
-        lam = 1e-11 * 1.4e9 / 1e-3
-        expected = math.exp(-lam * dt) * 1e5 + target / 1e-11 * -math.expm1(-lam * dt)
-        assert new[0] == pytest.approx(expected, rel=1e-12)
-        assert new[1] == pytest.approx(target, rel=1e-12)
+@pytest.mark.parametrize("law", ["orifice", "paper"])
+@pytest.mark.parametrize("u", [0.3, -0.2, 0.9])  # 0.9: beyond the limit, clipped to 0.5
+@pytest.mark.parametrize("dP", [4e6, -6e6, 23e6, 30e6])  # 23, 30 MPa: relieving, beyond supply
+def test_engine_plugin_is_eq_4(law: str, u: float, dP: float) -> None:
+    """The C plugin's state derivatives and force, as MuJoCo evaluates them, against eq. (4)
+    written out here: (V/E) dΔP/dt = Q - A v - Le ΔP, τ dQ/dt = Q* - Q, f = A ΔP (the relief
+    acts after each step, and the force never exceeds A times its pressure at full flow)."""
+    params = ml.HydraulicActuator(**{**CYLINDER.__dict__, "valve_law": law,
+                                     "relief_pressure": 22e6})
+    model = one_cylinder_model(params)
+    data = mujoco.MjData(model)
+    Q, v = 2e-4, 0.05
+    data.act[:] = [dP, Q]
+    data.qvel[0] = v
+    data.ctrl[0] = u
+    mujoco.mj_forward(model, data)
+    i = max(-0.5, min(0.5, u))
+    drop = (dP if i >= 0 else -dP) if law == "orifice" else abs(dP)
+    target = i * 1e-3 * math.sqrt(max(0.0, 1.0 - drop / 20e6))
+    expected = [1.4e9 / 1e-3 * (Q - 2e-3 * v - 1e-11 * dP), (target - Q) / 0.01]
+    assert data.act_dot[0] == pytest.approx(expected[0], rel=1e-12, abs=1e-3)
+    assert data.act_dot[1] == pytest.approx(expected[1], rel=1e-12, abs=1e-15)
+    cap = 22e6 * 1.01  # the relief passes C i_max 1 % above its setting
+    force = 2e-3 * math.copysign(min(abs(dP), cap), dP)
+    assert data.actuator_force[0] == pytest.approx(force, rel=1e-15)
+    assert data.qfrc_actuator[0] == pytest.approx(force, rel=1e-15)
 
 
-def test_bank_oil_spring_and_force_constant() -> None:
-    bank, model, ctrl = one_cylinder_bank(CYLINDER, 1e-3)
-    assert bank.spring == [pytest.approx(2e-3**2 * 1.4e9 / 1e-3)]
-    assert model.actuator_biasprm[0, 1] == -bank.spring[0]  # the oil spring: b0 - k q
-    flow = model.actuator("p/flow").id
-    bank.prepare([0.1], [3e6, 0.0, 0.0], [0.0], ctrl)  # closed valve: only leakage changes ΔP
-    b0 = model.actuator_biasprm[0, 0]
-    assert b0 == pytest.approx(2e-3 * 3e6 + bank.spring[0] * 0.1, rel=1e-12)  # A ΔP + k q
-    assert ctrl[flow] == pytest.approx(-1e-11 * 3e6, rel=1e-12)  # -Le ΔP, m³/s
-    bank.prepare([0.1], [3e6, 2e-4, 0.0], [0.0], ctrl)  # the valve closing: Q decays with τ
-    tau = CYLINDER.valve_tau
-    volume = 2e-4 * tau * -math.expm1(-1e-3 / tau)  # ∫Q over the step
-    assert ctrl[flow] == pytest.approx(volume / 1e-3 - 1e-11 * 3e6, rel=1e-12)
+@pytest.mark.parametrize("dt", [1e-3, 1e-4])
+def test_engine_plugin_relief_settles_where_its_flow_balances_the_valve(dt: float) -> None:
+    """A held piston (a huge mass), the valve wide open against a relief set below supply: the
+    pressure settles where the valve's flow equals leakage plus relief flow, the root of
+    Q*(ΔP) = Le ΔP + K_r (ΔP - p_r) (scipy's brentq), at any step."""
+    params = ml.HydraulicActuator(**{**CYLINDER.__dict__, "supply_pressure": 40e6,
+                                     "relief_pressure": 22e6})
+    model = one_cylinder_model(params, mass=1e15)
+    model.opt.timestep = dt
+    data = mujoco.MjData(model)
+    data.ctrl[0] = 0.5
+    for _ in range(round(1.0 / dt)):
+        mujoco.mj_step(model, data)
+    k_r = 1e-3 * 0.5 / (0.01 * 22e6)
+    balance = brentq(lambda p: 0.5e-3 * math.sqrt(1 - p / 40e6) - 1e-11 * p - k_r * (p - 22e6),
+                     22e6, 40e6, xtol=1e-6)
+    assert data.act[0] == pytest.approx(balance, rel=1e-9)
+    assert 22e6 < balance < 22e6 * 1.01
+
+
+def test_engine_plugin_refuses_a_bad_config() -> None:
+    """A parameter missing or out of range in a hand-edited file: MuJoCo refuses the model's
+    data with the plugin's message, never a silent default."""
+    model = one_cylinder_model(CYLINDER)
+    s = mujoco.MjSpec.from_string(ml.to_mjcf(ml.builtin_spec("crane3")))
+    s.plugins[0].config = {**s.plugins[0].config, "volume": "-1e-3"}
+    with pytest.raises(Exception, match="plugin"):
+        mujoco.MjData(s.compile())
+    assert model.nplugin == 1
 
 
 def test_torque_source() -> None:

@@ -44,7 +44,7 @@ def generations(monkeypatch: pytest.MonkeyPatch) -> list[str]:
 
 
 def _entry(root: Path) -> Path:
-    entries = [p for p in root.iterdir() if not p.name.startswith(".")]
+    entries = [p for p in root.iterdir() if not p.name.startswith(".") and p.name != "plugins"]
     assert len(entries) == 1, entries
     return entries[0]
 
@@ -164,7 +164,8 @@ def test_concurrent_generation(tmp_path: Path) -> None:
     outs = [p.communicate(timeout=300) for p in procs]
     assert all(p.returncode == 0 for p in procs), [o[1] for o in outs]
     assert outs[0][0] == outs[1][0]
-    assert [p.name for p in root.iterdir()] == [_entry(root).name]  # no leftovers
+    assert [p.name for p in root.iterdir() if p.name != "plugins"] == [_entry(root).name]
+    assert not list(root.glob("**/.tmp-*"))  # no leftovers, the plugin library's neither
 
 
 def test_uncached_model_leaves_the_cache_alone(fresh_cache: Path) -> None:
@@ -189,4 +190,5 @@ def test_import_has_no_side_effects(tmp_path: Path) -> None:
             "assert 'symengine' not in sys.modules or True")
     subprocess.run([sys.executable, "-c", code], check=True,
                    env={**os.environ, "MANIPLAB_CACHE": str(root)})
-    assert not root.exists()
+    # only MuJoCo's plugin library, which `import mujoco` builds on first use (maniplab_native)
+    assert not root.exists() or [p.name for p in root.iterdir()] == ["plugins"]

@@ -22,8 +22,12 @@ command, command_unit,     the plant's command clipping, the Run's signals, cont
 command_limit              saturation checks
 derivatives, force         the plant (MuJoCo integrates the states through its callbacks),
                            the linearisation
-native                     a faster implementation the plant's native route uses instead of
-                           MuJoCo's callbacks (the hydraulic cylinder's split scheme)
+mujoco_plugin              a MuJoCo engine plugin (C) that models the actuator inside MuJoCo:
+                           the plant and every MuJoCo tool integrate it with no Python per
+                           step (the hydraulic cylinder's ``maniplab.hydraulic``)
+native                     what the plant's native route does instead of MuJoCo's callbacks
+                           (a :class:`NativeGroup`; the base one: nothing, MuJoCo's actuator
+                           or engine plugin is the model)
 configure_mjcf             how the exported MJCF declares the actuator
 steady, holding            operating points (the state and command that hold a force), the
                            plant's start "held against gravity", the default drive
@@ -54,6 +58,7 @@ from maniplab.errors import ManiplabError
 from maniplab.schema import validated
 
 if TYPE_CHECKING:
+    from maniplab.actuators.plugin_mjcf import EnginePlugin
     from maniplab.spec import ControlSpec, Joint
 
 RESERVED_STATE_NAMES = frozenset(
@@ -316,6 +321,18 @@ class ActuatorPlugin(abc.ABC):
         J = np.array(columns).T  # (k + 1, k + 3)
         return Jacobians(J[:k, :k], J[:k, k], J[:k, k + 1], J[:k, k + 2], J[k, :k],
                          float(J[k, k]), float(J[k, k + 1]), float(J[k, k + 2]))
+
+    def mujoco_plugin(self) -> EnginePlugin | None:
+        """The MuJoCo engine plugin (C code registered with MuJoCo) that models this actuator
+        inside MuJoCo, or None (the default: MuJoCo's own actuator as :meth:`configure_mjcf`
+        declares it, or the plant's callbacks).
+
+        With a plugin, the actuator in the arm's model (and the exported MJCF) is an instance of
+        it with these parameters: MuJoCo's integrator advances its states in the plant and in
+        every MuJoCo tool, with no Python per step. :meth:`configure_mjcf` is then applied first,
+        for what the plugin does not set (the command range).
+        """
+        return None
 
     def configure_mjcf(self, act: mujoco.MjsActuator) -> None:
         """Declare the actuator in the MuJoCo model of the arm (the exported MJCF).

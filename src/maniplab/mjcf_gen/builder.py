@@ -12,9 +12,9 @@
   ``length_n * direction_n + offset`` holding the payload as a point mass;
 - one actuator per joint named after it, as the joint's actuator model declares it
   (:meth:`~maniplab.actuators.ActuatorPlugin.configure_mjcf`): MuJoCo's motor for a ``torque``
-  joint; for a hydraulic one an actuator with ``user`` dynamics and two activation states (ΔP, Q)
-  but zero gain and no bias, which is inert in a plain MuJoCo tool (no force, the states kept as
-  they are): the plant (:mod:`maniplab.sim`) gives it its force law at run time.
+  joint; for a hydraulic one an instance of the engine plugin ``maniplab.hydraulic`` with its
+  two activation states (ΔP, Q) and every parameter, which MuJoCo integrates itself, in the plant
+  and in any MuJoCo tool (:mod:`maniplab_native`).
 
 Compiler choices, all written to the MJCF:
 
@@ -38,6 +38,7 @@ import os
 import mujoco
 import numpy as np
 
+from maniplab.actuators.plugin_mjcf import activate_plugins, set_plugin
 from maniplab.builtin import resolve_spec
 from maniplab.mjcb import suspended
 from maniplab.mjcf_gen import checks, names, visuals
@@ -103,6 +104,7 @@ def _arm(spec: ManipulatorSpec) -> mujoco.MjSpec:
     visuals.decorate_end_effector(tip, spec.end_effector, scene)
     for joint in spec.joints:
         _add_actuator(s, joint)
+    activate_plugins(s)
     return s
 
 
@@ -207,4 +209,8 @@ def _add_actuator(s: mujoco.MjSpec, joint: Joint) -> None:
     """The actuator named after ``joint``, as its actuator model declares it
     (:meth:`~maniplab.actuators.ActuatorPlugin.configure_mjcf`)."""
     act = s.add_actuator(name=joint.name, target=joint.name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
-    model_of(joint).configure_mjcf(act)
+    model = model_of(joint)
+    model.configure_mjcf(act)
+    plugin = model.mujoco_plugin()
+    if plugin is not None:
+        set_plugin(s, act, plugin)

@@ -7,8 +7,8 @@ as ``fullinertia``, so ``mujoco.MjModel.from_xml_string(to_mjcf(spec))`` compile
 as :func:`~maniplab.mjcf_gen.builder.build_model`.
 
 It is deliberately small: it covers the elements and attributes the builder uses (compiler, option,
-visual, statistic, textures, materials, bodies with inertial/joint/geom/site/camera/light, general
-actuators). An attribute is written only when it differs from the value of a freshly created element
+visual, statistic, engine plugin instances, textures, materials, bodies with
+inertial/joint/geom/site/camera/light, general and plugin actuators). An attribute is written only when it differs from the value of a freshly created element
 of the same kind, which is also what MuJoCo's XML parser assumes for an absent attribute.
 """
 
@@ -168,6 +168,10 @@ _ACTUATOR: _Attrs = (
     ("biasprm", "biasprm"),
     ("actearly", "actearly"),
 )
+_PLUGIN_ACTUATOR = tuple(a for a in _ACTUATOR
+                         if a[0] not in ("gaintype", "biastype", "gainprm", "biasprm"))
+"""An engine plugin's actuator (``<plugin>``): the plugin computes the force, MJCF has no gain or
+bias for it."""
 _TRANSMISSION = {mujoco.mjtTrn.mjTRN_JOINT: "joint"}
 _INT_ENUMS = {  # fields MjSpec stores as plain ints
     "integrator": mujoco.mjtIntegrator,
@@ -245,6 +249,7 @@ def serialize(s: mujoco.MjSpec, comment: str | None = None) -> str:
     _element(root, "option", s.option, _OPTION, blank.option)
     _write_visual(root, s)
     _element(root, "statistic", s.stat, _STATISTIC, blank.stat)
+    _write_extension(root, s)
     _write_assets(root, s)
     _write_body(ET.SubElement(root, "worldbody"), s.worldbody, world=True)
     _write_actuators(root, s.actuators)
@@ -254,7 +259,7 @@ def serialize(s: mujoco.MjSpec, comment: str | None = None) -> str:
 
 def _check_supported(s: mujoco.MjSpec) -> None:
     kinds = ("sensors", "tendons", "equalities", "keys", "meshes", "hfields", "flexes", "pairs",
-             "excludes", "skins", "numerics", "texts", "tuples", "plugins", "frames")
+             "excludes", "skins", "numerics", "texts", "tuples", "frames")
     present = [kind for kind in kinds if len(getattr(s, kind))]
     if present:
         raise NotImplementedError(f"the MJCF writer cannot write {', '.join(present)} yet")
@@ -310,12 +315,32 @@ def _write_inertial(element: ET.Element, body: mujoco.MjsBody) -> None:
     ET.SubElement(element, "inertial", attrs)
 
 
+def _write_extension(root: ET.Element, s: mujoco.MjSpec) -> None:
+    """The engine plugins and their instances, each parameter as the text the spec holds."""
+    instances: dict[str, list[mujoco.MjsPlugin]] = {}
+    for instance in s.plugins:
+        instances.setdefault(instance.plugin_name, []).append(instance)
+    if not instances:
+        return
+    section = ET.SubElement(root, "extension")
+    for plugin, members in instances.items():
+        element = ET.SubElement(section, "plugin", plugin=plugin)
+        for instance in members:
+            item = ET.SubElement(element, "instance", name=instance.name)
+            for key, value in instance.config.items():
+                ET.SubElement(item, "config", key=key, value=value)
+
+
 def _write_actuators(root: ET.Element, actuators: Iterable[mujoco.MjsActuator]) -> None:
     section = ET.SubElement(root, "actuator")
     for act in actuators:
-        attrs = _attributes(act, _ACTUATOR, _blank().actuator)
+        plugin = act.plugin.active
+        attrs = _attributes(act, _PLUGIN_ACTUATOR if plugin else _ACTUATOR, _blank().actuator)
         head = {"name": attrs.pop("name")} if "name" in attrs else {}
-        ET.SubElement(section, "general", head | {_TRANSMISSION[act.trntype]: act.target} | attrs)
+        target = {_TRANSMISSION[act.trntype]: act.target}
+        if plugin:
+            target["instance"] = act.plugin.name
+        ET.SubElement(section, "plugin" if plugin else "general", head | target | attrs)
 
 
 def _element(parent: ET.Element, tag: str, obj: Any, attrs: _Attrs, default: Any) -> ET.Element:

@@ -15,6 +15,7 @@ import mujoco
 import numpy as np
 
 from maniplab.actuators import ActuatorPlugin, NativeGroup
+from maniplab.actuators.plugin_mjcf import clear_plugin
 from maniplab.spec import ManipulatorSpec, model_of
 
 _USER = mujoco.mjtDyn.mjDYN_USER
@@ -51,7 +52,7 @@ class Actuation:
                        for group, joints in by_class.items()]
         native = {j for joints in by_class.values() for j in joints}
         self.integrated = [j for j in range(self.n) if j not in native]
-        self._checked = [j for j in self.integrated if self.models[j].states]
+        self._checked = [j for j in range(self.n) if self.models[j].states]
 
     def configure(self, s: mujoco.MjSpec) -> None:
         """The plant's model edits: each integrated actuator gets one user activation per state,
@@ -59,6 +60,7 @@ class Actuation:
         actuators = {a.name: a for a in s.actuators}
         for j in self.integrated:
             act, k = actuators[self.models[j].joint.name], len(self.models[j].states)
+            clear_plugin(s, act)
             act.dyntype = _USER if k else mujoco.mjtDyn.mjDYN_NONE
             act.actdim = k if k else -1
             act.actlimited = mujoco.mjtLimited.mjLIMITED_FALSE
@@ -103,7 +105,8 @@ class Actuation:
         """After a step: the groups advance their states; then every state is checked.
 
         Returns:
-            None, or (joint, problem) for the first actuator whose states left their sane range.
+            None, or (joint, problem) for the first actuator whose states left their sane range
+            (every actuator with states is checked, whoever integrates it).
         """
         for group in self.groups:
             problem = group.finish(q0, q1, act0, u, act1)

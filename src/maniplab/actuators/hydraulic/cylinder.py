@@ -21,9 +21,10 @@ import numpy as np
 
 from maniplab.actuators.base import ActuatorPlugin, Bound, Jacobians, Steady, set_command_range
 from maniplab.actuators.hydraulic import valve
-from maniplab.actuators.hydraulic.bank import HydraulicBank, pressure_problem
 from maniplab.actuators.hydraulic.drive import PressureDrive
 from maniplab.actuators.hydraulic.params import HydraulicActuator
+from maniplab.actuators.native import NativeGroup
+from maniplab.actuators.plugin_mjcf import EnginePlugin
 
 if TYPE_CHECKING:
     from maniplab.actuators.drive import ForceDrive
@@ -31,6 +32,29 @@ if TYPE_CHECKING:
 
 HYDRAULIC_STATES = 2
 """Activation states of a hydraulic actuator: ΔP (Pa) and Q (m³/s), in that order."""
+
+MUJOCO_PLUGIN = "maniplab.hydraulic"
+"""The MuJoCo engine plugin (C, :mod:`maniplab_native`) that integrates eq. (4) in MuJoCo."""
+
+PRESSURE_LIMIT = 10.0
+"""A run whose |ΔP| exceeds this many times the supply pressure is declared unstable."""
+
+
+def pressure_bound(params: HydraulicActuator) -> float:
+    """|ΔP| beyond which a run is declared unstable: PRESSURE_LIMIT times the larger of the supply
+    and relief pressures, Pa."""
+    return PRESSURE_LIMIT * max(params.supply_pressure, params.relief_pressure or 0.0)
+
+
+def pressure_problem(dP: float, params: HydraulicActuator) -> str | None:
+    """What is wrong with a pressure beyond :func:`pressure_bound` (or NaN), else None."""
+    if abs(dP) <= pressure_bound(params):
+        return None
+    advice = ("" if params.relief_pressure else
+              "; nothing bounds it: give the cylinder a relief_pressure, or check its "
+              "valve_gain, volume and area")
+    return (f"ΔP = {dP:.4g} Pa is beyond {PRESSURE_LIMIT:g} times the supply pressure "
+            f"({params.supply_pressure:.4g} Pa){advice}")
 
 
 class HydraulicCylinder(ActuatorPlugin):
@@ -41,7 +65,7 @@ class HydraulicCylinder(ActuatorPlugin):
     state_units: ClassVar[tuple[str, ...]] = ("Pa", "m³/s")
     command: ClassVar[str] = "iv"
     command_unit: ClassVar[str] = "A"
-    native: ClassVar[type[HydraulicBank]] = HydraulicBank
+    native: ClassVar[type[NativeGroup]] = NativeGroup  # the MuJoCo plugin is the whole model
     spring_name: ClassVar[str] = "oil spring"
     params: HydraulicActuator
 
@@ -137,17 +161,16 @@ class HydraulicCylinder(ActuatorPlugin):
         """The valve-pressure loop sqrt((E/V) g / τ), the frequency of ΔP and Q ringing against
         each other with the piston held, g = C i_max / (2 Ps r) the valve's flow change per pascal
         at full current where the law's root r is 1/4 (|ΔP| = 15/16 Ps; it grows without bound as
-        the root vanishes, where the flow does); unless ``native`` (the native update advances
-        them exactly), also the valve's lag 1/τ and the leakage's and relief's pressure decay
-        (Le + K_r) E/V; all 1/s."""
+        the root vanishes, where the flow does); the valve's lag 1/τ; and the pressure decay of
+        the leakage, Le E/V, and of the relief, (Le + K_r) E/V, unless ``native`` (the engine
+        plugin takes the relief's regime exactly after each step); all 1/s."""
         p = self.params
         c = p.bulk_modulus / p.volume
         slope = p.valve_gain * p.current_limit / (2.0 * p.supply_pressure * 0.25)
-        loop = {"valve-pressure loop": math.sqrt(c * slope / p.valve_tau)}
-        if native:
-            return loop
-        return {**loop, "valve lag": 1.0 / p.valve_tau,
-                "leakage and relief": (p.leakage + p.relief_gain) * c}
+        relief = 0.0 if native else p.relief_gain
+        return {"valve-pressure loop": math.sqrt(c * slope / p.valve_tau),
+                "valve lag": 1.0 / p.valve_tau,
+                "leakage and relief" if relief else "leakage": (p.leakage + relief) * c}
 
     @property
     def capacitance(self) -> float:
@@ -166,21 +189,22 @@ class HydraulicCylinder(ActuatorPlugin):
         """The paper's inner pressure loop with the valve inversion G2 (:class:`PressureDrive`)."""
         return PressureDrive(actuators, joints, dt=dt, settings=settings)
 
-    def configure_mjcf(self, act: mujoco.MjsActuator) -> None:
-        """``user`` dynamics with the two states, a fixed zero gain and no bias.
+    def mujoco_plugin(self) -> EnginePlugin:
+        """MuJoCo's engine plugin ``maniplab.hydraulic`` with the two states (ΔP, Q) and every
+        parameter: MuJoCo integrates eq. (4) itself, in maniplab's plant and in any MuJoCo tool
+        that loads the exported file (``import mujoco`` registers the plugin)."""
+        p = self.params
+        config: dict[str, float | str] = {
+            "area": p.area, "bulk_modulus": p.bulk_modulus, "volume": p.volume,
+            "leakage": p.leakage, "valve_gain": p.valve_gain, "supply_pressure": p.supply_pressure,
+            "valve_tau": p.valve_tau, "valve_law": p.valve_law}
+        if p.relief_pressure is not None:
+            config |= {"relief_pressure": p.relief_pressure, "relief_gain": p.relief_gain}
+        return EnginePlugin(MUJOCO_PLUGIN, HYDRAULIC_STATES, config)
 
-        In a MuJoCo tool without maniplab's plant it is inert: MuJoCo's user dynamics leave the
-        states as they are without an ``mjcb_act_dyn``, and the force, gain × (the last state) +
-        bias, is zero. (A ``user`` gain would not be: without an ``mjcb_act_gain`` MuJoCo takes it
-        as 1, and the actuator would push with its valve flow Q in m³/s as a force.) The plant
-        gives it the force law of eq. (4) at run time.
-        """
-        act.dyntype = mujoco.mjtDyn.mjDYN_USER
-        act.gaintype = mujoco.mjtGain.mjGAIN_FIXED
-        act.gainprm = [0.0] * 10
-        act.biastype = mujoco.mjtBias.mjBIAS_NONE
-        act.actdim = HYDRAULIC_STATES
-        act.actlimited = mujoco.mjtLimited.mjLIMITED_FALSE
+    def configure_mjcf(self, act: mujoco.MjsActuator) -> None:
+        """The valve current's range ±current_limit (the plugin, :meth:`mujoco_plugin`, is the
+        rest)."""
         set_command_range(act, self.command_limit)
 
     def describe(self) -> str:

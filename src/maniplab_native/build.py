@@ -1,0 +1,144 @@
+"""Building and loading maniplab's plugin library (standard library only).
+
+The library is compiled from the C sources next to this file against the installed mujoco's
+headers and ``libmujoco``, into ``<cache>/plugins/<key>/``; the key hashes the sources, the mujoco
+headers and library, and the compiler, so an upgrade of any of them builds afresh. The file is
+written under a temporary name and renamed into place, so concurrent first uses (test workers,
+sweep processes) each see a whole library.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import hashlib
+import importlib.util
+import os
+import shlex
+import shutil
+import subprocess
+import sysconfig
+import tempfile
+import threading
+from pathlib import Path
+
+PLUGINS = ("maniplab.hydraulic", "maniplab.lugre")
+"""The MuJoCo plugins the library registers."""
+
+SOURCES = ("plugins.h", "common.c", "hydraulic.c", "lugre.c")
+
+CFLAGS = ("-O2", "-fPIC", "-shared", "-ffp-contract=off", "-fno-math-errno", "-std=c99")
+
+_HERE = Path(__file__).resolve().parent
+_LOCK = threading.Lock()
+_LOADED: list[ctypes.CDLL] = []
+
+
+class NativeBuildError(RuntimeError):
+    """The plugin library could not be built or loaded (no C compiler, no mujoco headers)."""
+
+
+def cache_root() -> Path:
+    """maniplab's cache folder: ``$MANIPLAB_CACHE``, else ``$XDG_CACHE_HOME/maniplab`` or
+    ``~/.cache/maniplab`` (not created here)."""
+    env = os.environ.get("MANIPLAB_CACHE")
+    if env:
+        return Path(env).expanduser()
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "maniplab"
+
+
+def compiler_candidates() -> list[tuple[str, ...]]:
+    """C compiler commands to try, in order: $MANIPLAB_CC, $CC, Python's CC, cc, gcc, clang.
+
+    ``MANIPLAB_CC=none`` means no compiler (an empty list)."""
+    if os.environ.get("MANIPLAB_CC", "").lower() == "none":
+        return []
+    names = [os.environ.get("MANIPLAB_CC"), os.environ.get("CC"), sysconfig.get_config_var("CC"),
+             "cc", "gcc", "clang"]
+    out = []
+    for name in names:
+        command = tuple(shlex.split(name)) if name else ()
+        if command and shutil.which(command[0]) and command not in out:
+            out.append(command)
+    return out
+
+
+def _mujoco_dir() -> Path:
+    spec = importlib.util.find_spec("mujoco")
+    if spec is None or not spec.submodule_search_locations:
+        raise NativeBuildError("maniplab's MuJoCo plugins: the mujoco package is not installed")
+    return Path(next(iter(spec.submodule_search_locations)))
+
+
+def _libmujoco(mujoco_dir: Path) -> Path:
+    libs = sorted(mujoco_dir.glob("libmujoco.so*")) + sorted(mujoco_dir.glob("libmujoco*.dylib"))
+    if not libs or not (mujoco_dir / "include" / "mujoco" / "mujoco.h").exists():
+        raise NativeBuildError(
+            f"maniplab's MuJoCo plugins: no libmujoco and headers in {mujoco_dir} "
+            "(a mujoco wheel >= 3.2 ships both)")
+    return libs[0]
+
+
+def _key(mujoco_dir: Path, lib: Path, compiler: tuple[str, ...]) -> str:
+    digest = hashlib.sha256()
+    for name in SOURCES:
+        digest.update((_HERE / name).read_bytes())
+    for header in sorted((mujoco_dir / "include" / "mujoco").glob("*.h")):
+        digest.update(header.read_bytes())
+    stat = lib.stat()
+    digest.update(f"{lib.name} {stat.st_size} {' '.join(compiler)} {CFLAGS}".encode())
+    return digest.hexdigest()[:24]
+
+
+def library_path() -> Path:
+    """The built plugin library, building it first when the cache has none.
+
+    Raises:
+        NativeBuildError: no C compiler, no mujoco headers, or the compiler failed.
+    """
+    mujoco_dir = _mujoco_dir()
+    lib = _libmujoco(mujoco_dir)
+    compilers = compiler_candidates()
+    if not compilers:
+        raise NativeBuildError(
+            "maniplab's MuJoCo plugins need a C compiler and none was found "
+            "(tried $MANIPLAB_CC, $CC, cc, gcc, clang): install one, e.g. apt-get install gcc")
+    compiler = compilers[0]
+    folder = cache_root() / "plugins" / _key(mujoco_dir, lib, compiler)
+    target = folder / "libmaniplab_plugins.so"
+    if target.exists():
+        return target
+    folder.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".so", dir=folder)
+    os.close(fd)
+    argv = [*compiler, *CFLAGS, f"-I{mujoco_dir / 'include'}",
+            *[str(_HERE / n) for n in SOURCES if n.endswith(".c")], "-o", tmp,
+            f"-L{mujoco_dir}", f"-l:{lib.name}", f"-Wl,-rpath,{mujoco_dir}", "-lm"]
+    try:
+        proc = subprocess.run(argv, capture_output=True, text=True, check=False, timeout=300)
+        if proc.returncode != 0:
+            last = (proc.stderr.strip().splitlines() or ["(no message)"])[-1]
+            raise NativeBuildError(f"maniplab's MuJoCo plugins: the C compiler failed: {last}")
+        os.replace(tmp, target)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+    return target
+
+
+def load() -> None:
+    """Build (on first use) and load the plugin library; MuJoCo then knows :data:`PLUGINS`.
+
+    Idempotent and thread-safe. This is the ``mujoco.plugins`` entry point.
+
+    Raises:
+        NativeBuildError: as :func:`library_path`, or the library does not load.
+    """
+    with _LOCK:
+        if _LOADED:
+            return
+        path = library_path()
+        try:
+            _LOADED.append(ctypes.CDLL(str(path)))
+        except OSError as exc:
+            raise NativeBuildError(f"maniplab's MuJoCo plugins: cannot load {path}: {exc}") from exc

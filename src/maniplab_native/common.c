@@ -1,0 +1,49 @@
+/* Helpers shared by maniplab's plugins, and the library's registration with MuJoCo. */
+#include <math.h>
+#include <stdlib.h>
+
+#include "plugins.h"
+
+int ml_config_number(const mjModel* m, int instance, const char* key, double* value) {
+  const char* text = mj_getPluginConfig(m, instance, key);
+  if (text == NULL || text[0] == '\0') return 1;
+  char* end = NULL;
+  double x = strtod(text, &end);
+  while (end && (*end == ' ' || *end == '\t' || *end == '\n')) end++;
+  if (end == text || (end && *end != '\0') || !isfinite(x)) {
+    mju_warning("maniplab plugin: config '%s' = '%s' is not a finite number", key, text);
+    return -1;
+  }
+  *value = x;
+  return 0;
+}
+
+int ml_instance_actuator(const mjModel* m, int instance, const char* plugin) {
+  int found = -1;
+  for (int i = 0; i < m->nu; i++) {
+    if (m->actuator_plugin[i] == instance) {
+      if (found != -1) {
+        mju_warning("%s: one plugin instance drives several actuators (%d and %d)", plugin,
+                    found, i);
+        return -1;
+      }
+      found = i;
+    }
+  }
+  if (found == -1) mju_warning("%s: no actuator uses plugin instance %d", plugin, instance);
+  return found;
+}
+
+double ml_control(const mjModel* m, const mjData* d, int actuator) {
+  double u = d->ctrl[actuator];
+  if (m->actuator_ctrllimited[actuator]) {
+    const double* range = m->actuator_ctrlrange + 2 * actuator;
+    u = u < range[0] ? range[0] : (u > range[1] ? range[1] : u);
+  }
+  return u;
+}
+
+mjPLUGIN_LIB_INIT(maniplab) {
+  ml_register_hydraulic();
+  ml_register_lugre();
+}

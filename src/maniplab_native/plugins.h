@@ -1,0 +1,20 @@
+/* maniplab's MuJoCo engine plugins: shared helpers (see hydraulic.c, lugre.c). */
+#ifndef MANIPLAB_PLUGINS_H_
+#define MANIPLAB_PLUGINS_H_
+
+#include <mujoco/mujoco.h>
+
+/* A number from the instance's config: 0 and *value set when present and a finite number;
+   1 when absent or empty (value untouched); -1 (with a MuJoCo warning) when it is not a number. */
+int ml_config_number(const mjModel* m, int instance, const char* key, double* value);
+
+/* The one actuator driven by plugin instance `instance`, or -1 (with a MuJoCo warning). */
+int ml_instance_actuator(const mjModel* m, int instance, const char* plugin);
+
+/* The actuator's control, clipped to its ctrlrange when it has one. */
+double ml_control(const mjModel* m, const mjData* d, int actuator);
+
+void ml_register_hydraulic(void);
+void ml_register_lugre(void);
+
+#endif
