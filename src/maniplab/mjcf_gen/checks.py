@@ -17,7 +17,6 @@ import mujoco
 import numpy as np
 
 from maniplab.actuators.plugin_mjcf import activate_plugins
-
 from maniplab.errors import ModelError
 from maniplab.mjcf_gen.reach import reach
 from maniplab.mjcf_gen.workspace import mass_matrices, poses
