@@ -40,7 +40,6 @@ import numpy as np
 
 from maniplab.actuators.plugin_mjcf import activate_plugins, set_plugin
 from maniplab.builtin import resolve_spec
-from maniplab.friction import FrictionModel
 from maniplab.mjcb import suspended
 from maniplab.mjcf_gen import checks, names, visuals
 from maniplab.mjcf_gen.timestep import DEFAULT, StepLimit, default_step, step_limit
@@ -164,16 +163,8 @@ def _add_link(parent: mujoco.MjsBody, joint: Joint, at: np.ndarray) -> mujoco.Mj
         axis=list(joint.axis_vector),
         range=list(joint.limits) if joint.limits else [0.0, 0.0],
         limited=limited,
-        # what plain MuJoCo can do of the joint's friction (the plant replaces it with its
-        # stick/slip automaton): dry friction at the Coulomb level, viscous as damping
-        frictionloss=joint.friction.coulomb if _dry(joint) else 0.0,
-        damping=[joint.friction.damping, 0.0, 0.0],
     )
     return body
-
-
-def _dry(joint: Joint) -> bool:
-    return joint.friction.model is not FrictionModel.none
 
 
 def _set_inertial(body: mujoco.MjsBody, link: Body) -> None:

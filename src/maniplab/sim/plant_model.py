@@ -5,8 +5,7 @@ Changes to the arm's model, all made on the MjSpec before compiling:
 - MuJoCo's own joint-limit constraints, contacts (the arm's geoms are drawing only) and its
   auto-reset on bad accelerations are disabled (the limit automaton holds joints at their limits;
   a NaN must reach the instability check); collision detection alone was 12 % of a step;
-- MuJoCo's dry friction (``frictionloss``, the exported file's fallback) is removed: the
-  automaton is the friction;
+- MuJoCo's dry friction (``frictionloss``) is zero: the automaton is the friction;
 - viscous friction (``friction.viscous``, LuGre's σ2) becomes the joint's damping, so MuJoCo
   integrates it inside the step;
 - each LuGre joint gets an extra actuator ``<joint>/lugre`` with one user activation, the bristle
