@@ -12,7 +12,7 @@ from scipy.optimize import brentq
 
 import maniplab as ml
 from maniplab.actuators.hydraulic import HydraulicCylinder
-from maniplab.actuators.plugin_mjcf import activate_plugins, set_plugin
+from maniplab.actuators.plugin_mjcf import EnginePlugin, activate_plugins, set_plugin
 from maniplab.actuators.torque import TorqueSource
 from maniplab.numerics import phi1
 
@@ -108,12 +108,33 @@ def test_engine_plugin_relief_settles_where_its_flow_balances_the_valve(dt: floa
 def test_engine_plugin_refuses_a_bad_config() -> None:
     """A parameter missing or out of range in a hand-edited file: MuJoCo refuses the model's
     data with the plugin's message, never a silent default."""
-    model = one_cylinder_model(CYLINDER)
     s = mujoco.MjSpec.from_string(ml.to_mjcf(ml.builtin_spec("crane3")))
+    mujoco.MjData(s.compile())  # as exported: accepted
     s.plugins[0].config = {**s.plugins[0].config, "volume": "-1e-3"}
     with pytest.raises(Exception, match="plugin"):
         mujoco.MjData(s.compile())
-    assert model.nplugin == 1
+
+
+@pytest.mark.parametrize(("z", "v"), [(2e-5, 0.03), (-1e-5, -0.004), (3e-6, 0.0)])
+def test_lugre_engine_plugin_is_canudas_de_wit(z: float, v: float) -> None:
+    """The C plugin ``maniplab.lugre`` against the 1995 paper's equations written out here:
+    g = Fc + Fs e^(-(v/vs)²), dz/dt = v - σ0 |v| z / g, force -(σ0 z + σ1 dz/dt)."""
+    s = mujoco.MjSpec()
+    body = s.worldbody.add_body(name="b", mass=1.0, inertia=[1.0, 1.0, 1.0])
+    body.add_joint(name="x", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[1.0, 0.0, 0.0])
+    act = s.add_actuator(name="x/lugre", target="x", trntype=mujoco.mjtTrn.mjTRN_JOINT)
+    config = {"sigma0": 1e5, "sigma1": 316.0, "coulomb": 1.0, "static": 0.5,
+              "stribeck_velocity": 1e-3}
+    set_plugin(s, act, EnginePlugin("maniplab.lugre", 1, config))
+    activate_plugins(s)
+    model = s.compile()
+    data = mujoco.MjData(model)
+    data.act[0], data.qvel[0] = z, v
+    mujoco.mj_forward(model, data)
+    g = 1.0 + 0.5 * math.exp(-((v / 1e-3) ** 2))
+    zdot = v - 1e5 * abs(v) * z / g
+    assert data.act_dot[0] == pytest.approx(zdot, rel=1e-12, abs=1e-15)
+    assert data.actuator_force[0] == pytest.approx(-(1e5 * z + 316.0 * zdot), rel=1e-12)
 
 
 def test_torque_source() -> None:

@@ -1,6 +1,8 @@
 /* Helpers shared by maniplab's plugins, and the library's registration with MuJoCo. */
 #include <math.h>
+#include <stdint.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "plugins.h"
 
@@ -16,6 +18,34 @@ int ml_config_number(const mjModel* m, int instance, const char* key, double* va
   }
   *value = x;
   return 0;
+}
+
+int ml_config_required(const mjModel* m, int instance, const char* plugin, const char* key,
+                       double* value, int positive) {
+  int status = ml_config_number(m, instance, key, value);
+  if (status == 1) {
+    mju_warning("%s: config '%s' is missing", plugin, key);
+    return -1;
+  }
+  if (status == 0 && (positive ? !(*value > 0.0) : !(*value >= 0.0))) {
+    mju_warning("%s: config '%s' must be %s, got %g", plugin, key,
+                positive ? "positive" : "non-negative", *value);
+    return -1;
+  }
+  return status;
+}
+
+int ml_keep(mjData* d, int instance, const void* params, size_t size) {
+  void* kept = malloc(size);
+  if (kept == NULL) return -1;
+  memcpy(kept, params, size);
+  d->plugin_data[instance] = (uintptr_t)kept;
+  return 0;
+}
+
+void ml_destroy(mjData* d, int instance) {
+  free((void*)d->plugin_data[instance]);
+  d->plugin_data[instance] = 0;
 }
 
 int ml_instance_actuator(const mjModel* m, int instance, const char* plugin) {

@@ -85,17 +85,7 @@ static double relieved(const Cylinder* c, double p0, double p1, double h) {
 }
 
 static int required(const mjModel* m, int instance, const char* key, double* value, int positive) {
-  int status = ml_config_number(m, instance, key, value);
-  if (status == 1) {
-    mju_warning(PLUGIN ": config '%s' is missing", key);
-    return -1;
-  }
-  if (status == 0 && (positive ? !(*value > 0.0) : !(*value >= 0.0))) {
-    mju_warning(PLUGIN ": config '%s' must be %s, got %g", key,
-                positive ? "positive" : "non-negative", *value);
-    return -1;
-  }
-  return status;
+  return ml_config_required(m, instance, PLUGIN, key, value, positive);
 }
 
 static int init(const mjModel* m, mjData* d, int instance) {
@@ -140,16 +130,7 @@ static int init(const mjModel* m, mjData* d, int instance) {
                        : 1.0;
     c.relief_cap = c.relief + c.valve_gain * limit / c.relief_gain;
   }
-  Cylinder* kept = (Cylinder*)malloc(sizeof(Cylinder));
-  if (kept == NULL) return -1;
-  *kept = c;
-  d->plugin_data[instance] = (uintptr_t)kept;
-  return 0;
-}
-
-static void destroy(mjData* d, int instance) {
-  free((void*)d->plugin_data[instance]);
-  d->plugin_data[instance] = 0;
+  return ml_keep(d, instance, &c, sizeof(c));
 }
 
 static int nstate(const mjModel* m, int instance) { return NSTATE; }
@@ -184,9 +165,8 @@ static void advance(const mjModel* m, mjData* d, int instance) {
   int adr = m->actuator_actadr[c->actuator];
   double p1 = d->act[adr];
   /* without a recorded start (the state was set at another time), hold p1 as the start */
-  double since = d->time - state[START_TIME];  /* h, or 0 if time moves after the plugins */
-  int known = state[HAVE_START] && (fabs(since - h) <= 1e-9 * (h + fabs(d->time))
-                                    || since == 0.0);
+  double since = d->time - state[START_TIME];  /* MuJoCo has advanced the time by h */
+  int known = state[HAVE_START] && fabs(since - h) <= 1e-9 * (h + fabs(d->time));
   d->act[adr] = relieved(c, known ? state[START_PRESSURE] : p1, p1, h);
   state[HAVE_START] = 0.0;
 }
@@ -209,7 +189,7 @@ void ml_register_hydraulic(void) {
   plugin.attributes = kAttributes;
   plugin.nstate = nstate;
   plugin.init = init;
-  plugin.destroy = destroy;
+  plugin.destroy = ml_destroy;
   plugin.reset = reset;
   plugin.compute = compute;
   plugin.actuator_act_dot = act_dot;

@@ -29,18 +29,8 @@ static double rate(const Bristles* b, double z, double v) {
   return v - b->sigma0 * fabs(v) * z / level;
 }
 
-static int number(const mjModel* m, int instance, const char* key, double* value, int positive) {
-  int status = ml_config_number(m, instance, key, value);
-  if (status == 1) {
-    mju_warning(PLUGIN ": config '%s' is missing", key);
-    return -1;
-  }
-  if (status == 0 && (positive ? !(*value > 0.0) : !(*value >= 0.0))) {
-    mju_warning(PLUGIN ": config '%s' must be %s, got %g", key,
-                positive ? "positive" : "non-negative", *value);
-    return -1;
-  }
-  return status;
+static int required(const mjModel* m, int instance, const char* key, double* value, int positive) {
+  return ml_config_required(m, instance, PLUGIN, key, value, positive);
 }
 
 static int init(const mjModel* m, mjData* d, int instance) {
@@ -53,10 +43,10 @@ static int init(const mjModel* m, mjData* d, int instance) {
     mju_warning(PLUGIN ": actuator %d needs actdim=\"1\" (z)", b.actuator);
     return -1;
   }
-  if (number(m, instance, "sigma0", &b.sigma0, 1) || number(m, instance, "sigma1", &b.sigma1, 0)
-      || number(m, instance, "coulomb", &b.coulomb, 0)
-      || number(m, instance, "static", &b.stiction, 0)
-      || number(m, instance, "stribeck_velocity", &stribeck, 1)) {
+  if (required(m, instance, "sigma0", &b.sigma0, 1) || required(m, instance, "sigma1", &b.sigma1, 0)
+      || required(m, instance, "coulomb", &b.coulomb, 0)
+      || required(m, instance, "static", &b.stiction, 0)
+      || required(m, instance, "stribeck_velocity", &stribeck, 1)) {
     return -1;
   }
   if (!(b.coulomb + b.stiction > 0.0)) {
@@ -64,16 +54,7 @@ static int init(const mjModel* m, mjData* d, int instance) {
     return -1;
   }
   b.inv_stribeck = 1.0 / stribeck;
-  Bristles* kept = (Bristles*)malloc(sizeof(Bristles));
-  if (kept == NULL) return -1;
-  *kept = b;
-  d->plugin_data[instance] = (uintptr_t)kept;
-  return 0;
-}
-
-static void destroy(mjData* d, int instance) {
-  free((void*)d->plugin_data[instance]);
-  d->plugin_data[instance] = 0;
+  return ml_keep(d, instance, &b, sizeof(b));
 }
 
 static int nstate(const mjModel* m, int instance) { return 0; }
@@ -103,7 +84,7 @@ void ml_register_lugre(void) {
   plugin.attributes = kAttributes;
   plugin.nstate = nstate;
   plugin.init = init;
-  plugin.destroy = destroy;
+  plugin.destroy = ml_destroy;
   plugin.reset = reset;
   plugin.compute = compute;
   plugin.actuator_act_dot = act_dot;

@@ -2,11 +2,24 @@
 #ifndef MANIPLAB_PLUGINS_H_
 #define MANIPLAB_PLUGINS_H_
 
+#include <stddef.h>
+
 #include <mujoco/mujoco.h>
 
 /* A number from the instance's config: 0 and *value set when present and a finite number;
    1 when absent or empty (value untouched); -1 (with a MuJoCo warning) when it is not a number. */
 int ml_config_number(const mjModel* m, int instance, const char* key, double* value);
+
+/* A required number of the config: 0 and *value set when present and positive (or, with
+   positive = 0, non-negative); -1 with a MuJoCo warning naming `plugin` and `key` otherwise. */
+int ml_config_required(const mjModel* m, int instance, const char* plugin, const char* key,
+                       double* value, int positive);
+
+/* Keep a copy of an instance's `size` bytes of parameters in d->plugin_data: 0, or -1. */
+int ml_keep(mjData* d, int instance, const void* params, size_t size);
+
+/* Free what ml_keep kept (the plugins' `destroy`). */
+void ml_destroy(mjData* d, int instance);
 
 /* The one actuator driven by plugin instance `instance`, or -1 (with a MuJoCo warning). */
 int ml_instance_actuator(const mjModel* m, int instance, const char* plugin);

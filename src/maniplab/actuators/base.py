@@ -37,6 +37,8 @@ drive                      how a controller makes the joint exert a desired forc
 top_speed                  the controller's weighting of the joints, the PID baseline's limits
 stiffness, rates, lag      the step size the arm needs, the controller's default gains
 bounds                     the health verdict of a run (e.g. pressures beyond supply)
+check_state, state_limits  the plant's instability check after every step (limits: a cheap
+                           comparison, check_state only for the message)
 describe                   ``maniplab info``
 =========================  ====================================================================
 """
@@ -247,6 +249,16 @@ class ActuatorPlugin(abc.ABC):
     def check_state(self, x: np.ndarray) -> str | None:
         """None, or what is wrong when the states (k,) left the range a stable run keeps them in
         (the plant stops the run with InstabilityError naming the joint)."""
+        return None
+
+    def state_limits(self) -> tuple[float, ...] | None:
+        """The largest |x| of each state in a stable run (inf: any finite value), or None.
+
+        With limits, the plant compares the states with them after every step (a NaN fails too)
+        and calls :meth:`check_state` only for the message once one is beyond; without (the
+        default), it calls :meth:`check_state` after every step, which costs a Python call per
+        actuator per step.
+        """
         return None
 
     # --- optional capabilities ------------------------------------------------------------------

@@ -16,7 +16,6 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from maniplab.actuators.plugin_mjcf import activate_plugins
 from maniplab.errors import ModelError
 from maniplab.mjcf_gen.reach import reach
 from maniplab.mjcf_gen.workspace import mass_matrices, poses
@@ -29,9 +28,7 @@ _POSES = 4  # random poses tried besides the home pose
 
 
 def compile_checked(s: mujoco.MjSpec, spec: ManipulatorSpec) -> mujoco.MjModel:
-    """``s.compile()`` with MuJoCo's errors turned into one-line ModelErrors naming the spec file;
-    the engine plugins the actuators use are declared (and maniplab's loaded) first."""
-    activate_plugins(s)
+    """``s.compile()`` with MuJoCo's errors turned into one-line ModelErrors naming the spec file."""
     try:
         return s.compile()
     except ValueError as exc:

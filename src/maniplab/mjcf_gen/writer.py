@@ -8,8 +8,9 @@ as :func:`~maniplab.mjcf_gen.builder.build_model`.
 
 It is deliberately small: it covers the elements and attributes the builder uses (compiler, option,
 visual, statistic, engine plugin instances, textures, materials, bodies with
-inertial/joint/geom/site/camera/light, general and plugin actuators). An attribute is written only when it differs from the value of a freshly created element
-of the same kind, which is also what MuJoCo's XML parser assumes for an absent attribute.
+inertial/joint/geom/site/camera/light, general and plugin actuators). An attribute is written only
+when it differs from the value of a freshly created element of the same kind, which is also what
+MuJoCo's XML parser assumes for an absent attribute.
 """
 
 from __future__ import annotations

@@ -23,16 +23,9 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from maniplab_native.build import cache_root
+
 META = "meta.json"
-
-
-def cache_root() -> Path:
-    """The cache folder (not created here)."""
-    env = os.environ.get("MANIPLAB_CACHE")
-    if env:
-        return Path(env).expanduser()
-    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
-    return Path(base) / "maniplab"
 
 
 def make_key(inputs: Mapping[str, Any]) -> str:

@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import os
 import shlex
-import shutil
 import subprocess
 import sysconfig
 from pathlib import Path
+
+from maniplab_native.build import compiler_candidates
 
 #: Flags: optimise; keep IEEE semantics (no fused multiply-add contraction, so C and the Python
 #: fallback evaluate the same operations); -fno-math-errno only lets sin/cos be merged into sincos.
@@ -44,20 +44,11 @@ class Compiler:
 
 @functools.cache
 def find_compiler() -> Compiler | None:
-    """The C compiler to use ($CC, Python's configured CC, cc, gcc or clang), or None.
+    """The C compiler to use ($MANIPLAB_CC, $CC, Python's configured CC, cc, gcc or clang), or None.
 
     Set ``MANIPLAB_CC=none`` to pretend there is no compiler (the pure-Python backend is used).
     """
-    if os.environ.get("MANIPLAB_CC", "").lower() == "none":
-        return None
-    candidates = [os.environ.get("MANIPLAB_CC"), os.environ.get("CC"), sysconfig.get_config_var("CC"),
-                  "cc", "gcc", "clang"]
-    for candidate in candidates:
-        if not candidate:
-            continue
-        command = tuple(shlex.split(candidate))
-        if not command or shutil.which(command[0]) is None:
-            continue
+    for command in compiler_candidates():
         try:
             proc = subprocess.run([*command, "--version"], capture_output=True, text=True,
                                   timeout=30, check=False)

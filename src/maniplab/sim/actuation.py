@@ -53,6 +53,7 @@ class Actuation:
         native = {j for joints in by_class.values() for j in joints}
         self.integrated = [j for j in range(self.n) if j not in native]
         self._checked = [j for j in range(self.n) if self.models[j].states]
+        self._limits: list[tuple[int, int, float]] = []  # (joint, state, limit), set in bind
 
     def configure(self, s: mujoco.MjSpec) -> None:
         """The plant's model edits: each integrated actuator gets one user activation per state,
@@ -71,8 +72,12 @@ class Actuation:
             group.configure(s)
 
     def bind(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
-        """Let the groups find their addresses in the compiled model."""
+        """The states' addresses and limits in the compiled model; the groups find theirs."""
         self._adr = [int(a) for a in model.actuator_actadr[: self.n]]
+        self._limits = [(j, self._adr[j] + i, lim) for j in self._checked
+                        for i, lim in enumerate(self.models[j].state_limits() or ())]
+        limited = {j for j, _, _ in self._limits}
+        self._unlimited = [j for j in self._checked if j not in limited]
         for group in self.groups:
             group.bind(model, data)
 
@@ -112,13 +117,19 @@ class Actuation:
             problem = group.finish(q0, q1, act0, u, act1)
             if problem is not None:
                 return problem
-        for j in self._checked:
-            a = self.models[j]
-            adr = self._adr[j]
-            text = a.check_state(np.asarray(act1[adr:adr + len(a.states)]))
+        for j, i, lim in self._limits:
+            if not -lim <= act1[i] <= lim:  # NaN too
+                state = self.models[j].states[i - self._adr[j]]
+                return j, self._problem(j, act1) or f"{state} = {act1[i]:.4g} is beyond ±{lim:.4g}"
+        for j in self._unlimited:
+            text = self._problem(j, act1)
             if text is not None:
                 return j, text
         return None
+
+    def _problem(self, j: int, act: list[float]) -> str | None:
+        a, adr = self.models[j], self._adr[j]
+        return a.check_state(np.asarray(act[adr:adr + len(a.states)]))
 
     def forces(self, q: np.ndarray, qd: np.ndarray, act: np.ndarray,
                ctrl: np.ndarray) -> np.ndarray:

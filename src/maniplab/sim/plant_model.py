@@ -5,7 +5,6 @@ Changes to the arm's model, all made on the MjSpec before compiling:
 - MuJoCo's own joint-limit constraints, contacts (the arm's geoms are drawing only) and its
   auto-reset on bad accelerations are disabled (the limit automaton holds joints at their limits;
   a NaN must reach the instability check); collision detection alone was 12 % of a step;
-- MuJoCo's dry friction (``frictionloss``) is zero: the automaton is the friction;
 - viscous friction (``friction.viscous``, LuGre's σ2) becomes the joint's damping, so MuJoCo
   integrates it inside the step;
 - each LuGre joint gets an extra actuator ``<joint>/lugre`` with one user activation, the bristle
@@ -56,7 +55,6 @@ def build_plant_model(spec: ManipulatorSpec, *, dt: float, integrator: int,
     joints = {j.name: j for j in s.joints}
     for joint in spec.joints:
         joints[joint.name].damping = [joint.friction.damping, 0.0, 0.0]
-        joints[joint.name].frictionloss = 0.0  # the automaton is the friction
         if joint.friction.model is FrictionModel.lugre:
             _add_bristles(s, joint.name, integrated=lugre_integrated)
     configure(s)

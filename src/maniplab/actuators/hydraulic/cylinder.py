@@ -113,6 +113,11 @@ class HydraulicCylinder(ActuatorPlugin):
         unstable."""
         return pressure_problem(float(x[0]), self.params)
 
+    def state_limits(self) -> tuple[float, ...]:
+        """(:func:`pressure_bound`, inf): ΔP as :meth:`check_state` judges it, Q any finite
+        value."""
+        return (pressure_bound(self.params), math.inf)
+
     def steady(self, force: float, q: float, v: float) -> Steady:
         """ΔP = f/A, Q = A v + Le ΔP + Q_r (the piston's flow, the leakage and what the relief
         lets by), i_v from the valve law (infinite where no current passes Q at that load)."""
