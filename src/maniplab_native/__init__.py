@@ -11,6 +11,6 @@ This package imports only the standard library (it runs while ``mujoco`` is bein
 
 from __future__ import annotations
 
-from maniplab_native.build import PLUGINS, NativeBuildError, library_path, load
+from maniplab_native.build import PLUGINS, NativeBuildError, library, library_path, load
 
-__all__ = ["PLUGINS", "NativeBuildError", "library_path", "load"]
+__all__ = ["PLUGINS", "NativeBuildError", "library", "library_path", "load"]

@@ -24,7 +24,11 @@ from pathlib import Path
 PLUGINS = ("maniplab.hydraulic", "maniplab.lugre")
 """The MuJoCo plugins the library registers."""
 
-SOURCES = ("plugins.h", "common.c", "hydraulic.c", "lugre.c")
+
+def sources() -> list[Path]:
+    """The library's C sources and headers: every ``*.c`` and ``*.h`` next to this file."""
+    return sorted([*_HERE.glob("*.c"), *_HERE.glob("*.h")])
+
 
 CFLAGS = ("-O2", "-fPIC", "-shared", "-ffp-contract=off", "-fno-math-errno", "-std=c99")
 
@@ -81,8 +85,9 @@ def _libmujoco(mujoco_dir: Path) -> Path:
 
 def _key(mujoco_dir: Path, lib: Path, compiler: tuple[str, ...]) -> str:
     digest = hashlib.sha256()
-    for name in SOURCES:
-        digest.update((_HERE / name).read_bytes())
+    for path in sources():
+        digest.update(path.name.encode())
+        digest.update(path.read_bytes())
     for header in sorted((mujoco_dir / "include" / "mujoco").glob("*.h")):
         digest.update(header.read_bytes())
     stat = lib.stat()
@@ -112,7 +117,7 @@ def library_path() -> Path:
     fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".so", dir=folder)
     os.close(fd)
     argv = [*compiler, *CFLAGS, f"-I{mujoco_dir / 'include'}",
-            *[str(_HERE / n) for n in SOURCES if n.endswith(".c")], "-o", tmp,
+            *[str(path) for path in sources() if path.suffix == ".c"], "-o", tmp,
             f"-L{mujoco_dir}", f"-l:{lib.name}", f"-Wl,-rpath,{mujoco_dir}", "-lm"]
     try:
         proc = subprocess.run(argv, capture_output=True, text=True, check=False, timeout=300)
@@ -142,3 +147,14 @@ def load() -> None:
             _LOADED.append(ctypes.CDLL(str(path)))
         except OSError as exc:
             raise NativeBuildError(f"maniplab's MuJoCo plugins: cannot load {path}: {exc}") from exc
+
+
+def library() -> ctypes.CDLL:
+    """The loaded plugin library, for ctypes calls of its exported C functions (built and loaded
+    on first use, see :func:`load`).
+
+    Raises:
+        NativeBuildError: as :func:`load`.
+    """
+    load()
+    return _LOADED[0]

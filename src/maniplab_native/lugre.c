@@ -1,10 +1,21 @@
 /* LuGre friction (Canudas de Wit et al. 1995) on one joint as a MuJoCo actuator plugin.
 
-   Activation (actdim 1): the bristle deflection z (m or rad). With v the actuator's velocity:
+   Activation (actdim 1): the bristle deflection z (m or rad). With v the joint's velocity:
 
      g(v)   = Fc + Fs exp(-(v/vs)^2)
      dz/dt  = v - sigma0 |v| z / g(v)
      force  = -(sigma0 z + sigma1 dz/dt)         (sigma2 v is the joint's damping)
+
+   The bristles relax at the rate sigma0 |v| / g(v), which reaches 1e4 1/s on the 1995 paper's
+   stick-slip case: integrated by MuJoCo's RK4 with the arm, z would need steps of ~0.1 ms. So z
+   is not part of act_dot (its rate is 0 within a step): after each step (`advance`) it takes the
+   exact solution of dz/dt for the step's mean velocity vbar = (q1 - q0)/h,
+
+     z1 = z0 exp(-a h) + vbar h (1 - exp(-a h)) / (a h),   a = sigma0 |vbar| / g(vbar),
+
+   stable at any step; within the step the force follows the joint's velocity at each stage with
+   z held. The step's starting position is recorded when act_dot is evaluated at the step's start
+   (its first evaluation after a reset or a step, or again at that same time).
 
    The actuator takes no control (give it ctrllimited="false" and leave ctrl at 0). */
 #include <math.h>
@@ -18,15 +29,29 @@
 
 typedef struct {
   int actuator;
+  int qpos;             /* the joint's position address */
   double sigma0, sigma1, coulomb, stiction, inv_stribeck;
 } Bristles;
 
+/* plugin_state of an instance: the step's start time and position, and whether they are set */
+enum { START_TIME, START_POSITION, HAVE_START, NSTATE };
+
 static const char* kAttributes[] = {"sigma0", "sigma1", "coulomb", "static", "stribeck_velocity"};
 
-static double rate(const Bristles* b, double z, double v) {
+static double level(const Bristles* b, double v) {
   double r = v * b->inv_stribeck;
-  double level = b->coulomb + b->stiction * exp(-r * r);
-  return v - b->sigma0 * fabs(v) * z / level;
+  return b->coulomb + b->stiction * exp(-r * r);
+}
+
+static double rate(const Bristles* b, double z, double v) {
+  return v - b->sigma0 * fabs(v) * z / level(b, v);
+}
+
+/* z after a step h at the constant velocity v, exactly. */
+static double relax(const Bristles* b, double z, double v, double h) {
+  double x = b->sigma0 * fabs(v) / level(b, v) * h;
+  double phi1 = x > 1e-12 ? -expm1(-x) / x : 1.0 - 0.5 * x; /* (1 - e^-x) / x */
+  return z * exp(-x) + v * h * phi1;
 }
 
 static int required(const mjModel* m, int instance, const char* key, double* value, int positive) {
@@ -39,6 +64,11 @@ static int init(const mjModel* m, mjData* d, int instance) {
   memset(&b, 0, sizeof(b));
   b.actuator = ml_instance_actuator(m, instance, PLUGIN);
   if (b.actuator < 0) return -1;
+  if (m->actuator_trntype[b.actuator] != mjTRN_JOINT) {
+    mju_warning(PLUGIN ": actuator %d must act on a joint", b.actuator);
+    return -1;
+  }
+  b.qpos = m->jnt_qposadr[m->actuator_trnid[2 * b.actuator]];
   if (m->actuator_actnum[b.actuator] != 1) {
     mju_warning(PLUGIN ": actuator %d needs actdim=\"1\" (z)", b.actuator);
     return -1;
@@ -57,14 +87,38 @@ static int init(const mjModel* m, mjData* d, int instance) {
   return ml_keep(d, instance, &b, sizeof(b));
 }
 
-static int nstate(const mjModel* m, int instance) { return 0; }
+static int nstate(const mjModel* m, int instance) { return NSTATE; }
 
-static void reset(const mjModel* m, mjtNum* plugin_state, void* plugin_data, int instance) {}
+static void reset(const mjModel* m, mjtNum* plugin_state, void* plugin_data, int instance) {
+  plugin_state[START_TIME] = 0.0;
+  plugin_state[START_POSITION] = 0.0;
+  plugin_state[HAVE_START] = 0.0;
+}
 
 static void act_dot(const mjModel* m, mjData* d, int instance) {
   const Bristles* b = (const Bristles*)d->plugin_data[instance];
+  d->act_dot[m->actuator_actadr[b->actuator]] = 0.0;
+  mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
+  if (!state[HAVE_START] || d->time == state[START_TIME]) {
+    state[START_TIME] = d->time;
+    state[START_POSITION] = d->qpos[b->qpos];
+    state[HAVE_START] = 1.0;
+  }
+}
+
+static void advance(const mjModel* m, mjData* d, int instance) {
+  const Bristles* b = (const Bristles*)d->plugin_data[instance];
+  mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
+  double h = m->opt.timestep;
   int adr = m->actuator_actadr[b->actuator];
-  d->act_dot[adr] = rate(b, d->act[adr], d->actuator_velocity[b->actuator]);
+  /* MuJoCo has advanced the time by h; without a recorded start (the state was set at another
+     time) the joint's current velocity stands for the step's mean */
+  double since = d->time - state[START_TIME];
+  int known = state[HAVE_START] && fabs(since - h) <= 1e-9 * (h + fabs(d->time));
+  double v = known ? (d->qpos[b->qpos] - state[START_POSITION]) / h : d->qvel[m->jnt_dofadr[
+      m->actuator_trnid[2 * b->actuator]]];
+  d->act[adr] = relax(b, d->act[adr], v, h);
+  state[HAVE_START] = 0.0;
 }
 
 static void compute(const mjModel* m, mjData* d, int instance, int capability_bit) {
@@ -88,5 +142,6 @@ void ml_register_lugre(void) {
   plugin.reset = reset;
   plugin.compute = compute;
   plugin.actuator_act_dot = act_dot;
+  plugin.advance = advance;
   mjp_registerPlugin(&plugin);
 }

@@ -14,7 +14,10 @@
   (:meth:`~maniplab.actuators.ActuatorPlugin.configure_mjcf`): MuJoCo's motor for a ``torque``
   joint; for a hydraulic one an instance of the engine plugin ``maniplab.hydraulic`` with its
   two activation states (ΔP, Q) and every parameter, which MuJoCo integrates itself, in the plant
-  and in any MuJoCo tool (:mod:`maniplab_native`).
+  and in any MuJoCo tool (:mod:`maniplab_native`);
+- after them, for each joint with LuGre friction, an actuator ``<joint>/lugre`` that is an
+  instance of the engine plugin ``maniplab.lugre``: its one activation is the bristle state z,
+  its force the bristles' (σ2, the viscous part, is the joint's damping in the plant).
 
 Compiler choices, all written to the MJCF:
 
@@ -38,7 +41,8 @@ import os
 import mujoco
 import numpy as np
 
-from maniplab.actuators.plugin_mjcf import activate_plugins, set_plugin
+from maniplab.actuators.plugin_mjcf import EnginePlugin, activate_plugins, set_plugin
+from maniplab.friction import FrictionModel
 from maniplab.builtin import resolve_spec
 from maniplab.mjcb import suspended
 from maniplab.mjcf_gen import checks, names, visuals
@@ -104,6 +108,9 @@ def _arm(spec: ManipulatorSpec) -> mujoco.MjSpec:
     visuals.decorate_end_effector(tip, spec.end_effector, scene)
     for joint in spec.joints:
         _add_actuator(s, joint)
+    for joint in spec.joints:
+        if joint.friction.model is FrictionModel.lugre:
+            _add_bristles(s, joint)
     activate_plugins(s)
     return s
 
@@ -214,3 +221,15 @@ def _add_actuator(s: mujoco.MjSpec, joint: Joint) -> None:
     plugin = model.mujoco_plugin()
     if plugin is not None:
         set_plugin(s, act, plugin)
+
+
+def _add_bristles(s: mujoco.MjSpec, joint: Joint) -> None:
+    """LuGre's bristles on ``joint``: actuator ``<joint>/lugre``, an instance of the engine plugin
+    ``maniplab.lugre`` with state z and no control."""
+    act = s.add_actuator(name=joint.name + names.LUGRE_SUFFIX, target=joint.name,
+                         trntype=mujoco.mjtTrn.mjTRN_JOINT)
+    act.ctrllimited = mujoco.mjtLimited.mjLIMITED_FALSE
+    f = joint.friction
+    set_plugin(s, act, EnginePlugin(names.LUGRE_PLUGIN, 1, {
+        "sigma0": f.sigma0, "sigma1": f.sigma1, "coulomb": f.coulomb, "static": f.static,
+        "stribeck_velocity": f.stribeck_velocity}))

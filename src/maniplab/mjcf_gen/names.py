@@ -26,6 +26,14 @@ OVERVIEW_CAMERA = "overview"
 """Fixed camera that sees the whole reach of the arm around the base."""
 
 
+LUGRE_SUFFIX = "/lugre"
+"""Name of a LuGre joint's bristle-state actuator: ``<joint>/lugre`` (``/`` cannot occur in a
+joint name, so the name is free)."""
+
+LUGRE_PLUGIN = "maniplab.lugre"
+"""The MuJoCo engine plugin (C, :mod:`maniplab_native`) of LuGre friction."""
+
+
 def body_name(joint_name: str) -> str:
     """Name of the MuJoCo body moved by the spec joint ``joint_name`` (e.g. 'q1' -> 'link_q1')."""
     return f"link_{joint_name}"

@@ -1,32 +1,32 @@
-"""MuJoCo actuator callbacks for plugin actuators, installed only while their plant steps.
+"""Python actuators in the plant: MuJoCo's act_dyn and act_bias callbacks answered in Python.
 
-MuJoCo's ``mjcb_act_dyn`` and ``mjcb_act_bias`` are process-global. A plant whose actuators run on
-the callback route (plugins, or every actuator with ``Plant(..., route="callbacks")``) installs its
-own pair, :class:`PluginCallbacks`, inside :func:`installed`; a plant without any keeps everyone
-else's away from its user actuators inside :func:`suspended`, and models are compiled inside it
-too. Both scopes (:mod:`maniplab.mjcb`, re-exported here) hold one process-wide re-entrant lock,
-so plants in different threads take turns, while a plant may still step another one from inside
-its own controller (the inner scope installs the inner plant's pair and gives the outer one
-back); they restore whatever was installed before, also when the step raises.
+MuJoCo's actuator callbacks are process-global. The plant in C installs its own pair only while it
+steps (``maniplab_native/plant.c``); for the actuators written in Python (``user`` dynamics or
+bias) they call back into Python through the ctypes hooks of :class:`PythonHooks`, which ask the
+actuator's :meth:`~maniplab.actuators.ActuatorPlugin.derivatives` and
+:meth:`~maniplab.actuators.ActuatorPlugin.force` (:class:`PluginCallbacks`). A hook that raises
+stops the run after the step, and the plant raises that error (as a PluginError naming the
+actuator and the joint). One plant with Python actuators steps at a time in a process
+(:func:`maniplab.mjcb.exclusive`); plants without any step in parallel, with no Python at all.
 
-The callbacks answer only for their own plant's model and data; for any other model they behave
-as if no callback were installed (zero activation derivatives, zero user bias), so states of two
-plants never mix. A plant on the native route uses no callbacks at all.
+Each callback costs a Python call (about 3 µs per actuator and RK4 stage): an arm with one Python
+actuator steps several times slower than with maniplab's engine plugins alone (see the
+benchmarks).
 """
 
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
-from typing import Protocol
+from collections.abc import Callable, Sequence
+from typing import Any, Protocol
 
 import mujoco
 import numpy as np
 
-from maniplab.mjcb import installed, suspended
+from maniplab.sim import native
 from maniplab.sim.errors import PluginError
 
-__all__ = ["Integrated", "PluginCallbacks", "installed", "suspended"]
+__all__ = ["Integrated", "PluginCallbacks", "PythonHooks"]
 
 
 class Integrated(Protocol):
@@ -116,3 +116,46 @@ _EMPTY = np.zeros(0)
 def _name(e: _Entry) -> str:
     cls = type(e.plugin)
     return f"{cls.__module__}:{cls.__qualname__}"
+
+
+class PythonHooks:
+    """The C plant's hooks into Python, as ctypes function pointers, and the first exception any
+    of them raised (``error``; the run stops after the step in which it was raised).
+
+    Args:
+        callbacks: the plant's Python actuators, or None.
+        check: a per-step check of the states that have no bounds, returning the joint with a
+            bad state or -1; or None.
+    """
+
+    def __init__(self, callbacks: PluginCallbacks | None,
+                 check: Callable[[], int] | None) -> None:
+        self.error: BaseException | None = None
+        self._callbacks = callbacks
+        self._checker = check
+        self.actuator = native.ACTUATOR(self._actuator) if callbacks else native.ACTUATOR()
+        self.check = native.CHECK(self._check) if check else native.CHECK()
+
+    def _actuator(self, kind: int, i: int, out: Any) -> int:
+        cb = self._callbacks
+        assert cb is not None
+        try:
+            out[0] = (cb.act_dyn if kind == 0 else cb.act_bias)(cb.model, cb.data, i)
+            return 0
+        except BaseException as exc:  # noqa: BLE001 - handed to the caller after the step
+            self.error = self.error or exc
+            return 1
+
+    def _check(self) -> int:
+        assert self._checker is not None
+        try:
+            return self._checker()
+        except BaseException as exc:  # noqa: BLE001 - handed to the caller after the step
+            self.error = self.error or exc
+            return -2
+
+    def raise_error(self) -> None:
+        """Raise the stored error (once)."""
+        error, self.error = self.error, None
+        if error is not None:
+            raise error

@@ -8,15 +8,13 @@ in the arrays this layout reads.
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Iterator, Sequence
 
 import mujoco
 import numpy as np
 
 from maniplab.actuators import ActuatorPlugin
-
-LUGRE_SUFFIX = "/lugre"
-"""Name of a LuGre joint's bristle-state actuator: ``<joint>/lugre``."""
+from maniplab.mjcf_gen.names import LUGRE_SUFFIX
 
 LUGRE_STATE = "z"
 """The name of LuGre's bristle state."""
@@ -72,9 +70,3 @@ class StateLayout:
             out[name] = full
         return out
 
-    def bristles(self) -> Mapping[int, int]:
-        """LuGre's bristle-state address per LuGre joint index."""
-        if LUGRE_STATE not in self._layout:
-            return {}
-        joints, adrs = self._layout[LUGRE_STATE]
-        return {int(j): int(a) for j, a in zip(joints, adrs)}

@@ -1,41 +1,35 @@
-"""The Plant: MuJoCo steps the arm's rigid body, maniplab's actuators and friction act on it.
+"""The Plant: MuJoCo steps the arm, maniplab's friction/limit automaton acts on it, all in C.
 
 One step of length dt (the paper's template plant, its Fig. 5):
 
-1. **prepare** (at t): the commands are clipped and written to ``ctrl``; the actuators' native
-   groups set their forces for the coming step (:mod:`~maniplab.sim.actuation`); the
-   friction/limit automaton sets the friction forces and holds the joints that are stuck or on a
-   limit (:mod:`~maniplab.sim.automaton`). MuJoCo then evaluates the dynamics at t (the forward
-   pass of ``mj_step``), and the automaton decides the step's modes on them;
+1. **prepare** (at t): the commands are clipped and written to ``ctrl``; the friction/limit
+   automaton sets the slipping joints' friction and holds the joints that are stuck or on a
+   limit; MuJoCo evaluates the dynamics at t (the forward pass of ``mj_step``), and the automaton
+   decides the step's modes on them;
 2. **advance**: MuJoCo's integrator (RK4 by default) takes the step from that evaluation,
-   integrating q, q̇ and every MuJoCo-integrated state; the automaton handles the step's events
-   (held joints put back, stick and limit events); the native groups and LuGre's z advance; a
-   non-finite velocity or a state out of its sane range stops the run.
+   integrating q, q̇ and every actuator state (the cylinders' and LuGre's engine plugins, Python
+   actuators through MuJoCo's callbacks); the automaton handles the step's events (held joints put
+   back, stick and limit events); a non-finite value or a state out of its sane range stops the
+   run.
 
-The plant is four parts, each with one job: the state layout (:class:`~.layout.StateLayout`,
-where each named state lives in ``d.act``), the actuators (:class:`~.actuation.Actuation`), the
-friction/limit automaton (:class:`~.automaton.Automaton`), and what a step publishes for
-recording (:class:`StepRecord`, read by ``simulate``'s recorder).
+Both halves, and whole runs with their recording (:func:`~maniplab.sim.simulate.simulate`), are
+the plant in C (``maniplab_native/plant.c``, bound in :mod:`~maniplab.sim.native`): no Python runs
+per step unless an actuator or the controller is written in Python, and the GIL is released
+while it steps, so plants in several threads run in parallel. This class holds the arm's model
+and data, sets and reads the state, and turns the C plant's errors into maniplab's.
 
 All actuator and friction states live in ``d.act`` (ΔP, Q of a cylinder; a plugin's states; LuGre's
 z in actuator ``<joint>/lugre``), so ``mj_getState(..., mjSTATE_ACT)``, resets and keyframes include
-them. The friction/limit modes are a function of that state (a held joint has q̇ = 0 exactly and
-sits on its limit, or has stick/slip friction), so :meth:`Plant.restore` recomputes them; the next
-step's start checks them against the forces.
-
-Routes: on the **native** route (default) the actuators that declare a native group
-(the torque source: MuJoCo's motor; the hydraulic cylinder: its split scheme) and LuGre's z are
-advanced without MuJoCo callbacks. Other plugins (and every actuator, and LuGre, with
-``route="callbacks"``) are integrated by MuJoCo's RK4 itself through ``mjcb_act_dyn`` /
-``mjcb_act_bias``, installed only while the plant steps (:mod:`maniplab.sim.callbacks`). On the
-erector (6 hydraulic joints, RK4, dt = 1 ms) the native route costs about 4 bare ``mj_step`` per
-step, the callback route about 15 (see the benchmarks).
+them (:class:`~.layout.StateLayout` names them). The friction/limit modes are a function of that
+state (a held joint has q̇ = 0 exactly and sits on its limit, or has stick/slip friction), so
+:meth:`Plant.restore` recomputes them; the next step's start checks them against the forces.
 """
 
 from __future__ import annotations
 
 import contextlib
 import copy
+import ctypes
 import dataclasses
 import math
 import os
@@ -48,19 +42,21 @@ import numpy as np
 from maniplab.actuators import CapabilityError
 from maniplab.builtin import resolve_spec
 from maniplab.friction import FrictionModel
-from maniplab.friction.lugre import LuGreBristles
+from maniplab.mjcb import exclusive, suspended
 from maniplab.mjcf_gen.builder import arm_step_limit
+from maniplab.mjcf_gen.names import LUGRE_SUFFIX
 from maniplab.mjcf_gen.timestep import default_step, round_down
-from maniplab.sim import callbacks as _callbacks
+from maniplab.sim import native
 from maniplab.sim.actuation import Actuation
-from maniplab.sim.automaton import Automaton
-from maniplab.sim.errors import InputError, InstabilityError
-from maniplab.sim.layout import LUGRE_SUFFIX, StateLayout
+from maniplab.sim.callbacks import PluginCallbacks, PythonHooks
+from maniplab.sim.errors import InputError, InstabilityError, PluginError
+from maniplab.sim.layout import StateLayout
 from maniplab.sim.plant_model import build_plant_model
 from maniplab.sim.state import PlantState
 from maniplab.spec import ManipulatorSpec
 
-ROUTES = ("native", "callbacks")
+HOLD_INERTIA = 1e12
+"""Held joints get this many times the arm's largest inertia (diagonal of M) as armature."""
 
 MAX_SUBSTEPS = 1000
 """A step that needs more sub-steps than this is refused (the run would take too long)."""
@@ -74,8 +70,7 @@ SpecLike = ManipulatorSpec | str | os.PathLike[str]
 
 @dataclasses.dataclass
 class StepRecord:
-    """What the plant publishes about its steps, for a recorder (lists, not copies: a recorder
-    keeps the references, and the plant makes new lists each step).
+    """What the plant's last step published (a snapshot, :attr:`Plant.record`).
 
     Attributes:
         t: the time of the prepared step's start, s.
@@ -108,32 +103,26 @@ class Plant:
             :mod:`~maniplab.mjcf_gen.timestep`). A step coarser than that is taken in as many
             MuJoCo sub-steps as it needs.
         integrator: MuJoCo integrator name, "RK4" (default), "Euler", "implicit" or "implicitfast".
-        route: "native" (actuators with a native form and LuGre advanced by maniplab between
-            MuJoCo's steps, no callbacks; other plugins still use callbacks) or "callbacks" (every
-            actuator and LuGre integrated by MuJoCo through its callbacks).
 
     Attributes:
         spec: the arm.  dt: s.  n: number of joints.
         step_limit: the largest MuJoCo step the arm's actuators allow, and why.
         substeps: MuJoCo steps per step (dt / substeps is the model's ``opt.timestep``).
         model: the plant's MuJoCo model as compiled, a constant description of the arm (stepping
-            uses a private working copy whose held joints' armature and cylinders' bias
-            parameters change from step to step).
+            uses a private working copy whose held joints' armature changes from step to step).
         data: MuJoCo's data of the plant.
         actuators: the actuator model of each joint.
         layout: where each named state lives in ``data.act``.
-        record: what the last step published (:class:`StepRecord`).
+        hold_inertia: the armature that holds a stuck joint or one on a limit, kg or kg·m².
         modes: friction/limit mode of each joint (``FrictionMode`` values), int8 (n,).
         tau_fric, tau_limit: friction (incl. stiction's holding force) and limit-stop forces of
             the last step, N or N·m, (n,).
     """
 
-    def __init__(self, spec: SpecLike, *, dt: float | None = None, integrator: str = "RK4",
-                 route: str = "native") -> None:
+    def __init__(self, spec: SpecLike, *, dt: float | None = None,
+                 integrator: str = "RK4") -> None:
         self.spec = resolve_spec(spec)
-        if route not in ROUTES:
-            raise InputError(f"unknown route {route!r}; expected 'native' or 'callbacks'")
-        self.step_limit = arm_step_limit(self.spec, route == "native")
+        self.step_limit = arm_step_limit(self.spec)
         self.dt = float(dt) if dt is not None else default_step(self.step_limit)
         if not (self.dt > 0.0 and np.isfinite(self.dt)):
             raise InputError(f"dt must be a positive number of seconds, got {dt!r}")
@@ -148,53 +137,41 @@ class Plant:
                 f"{self.step_limit.describe()}: more than {MAX_SUBSTEPS} sub-steps per step",
                 time=0.0, joint=self.step_limit.joint, dt=self.dt,
                 works=round_down(self.step_limit.dt * MAX_SUBSTEPS))
-        step = self.dt / self.substeps
-        self.route = route
         self.integrator = _integrator(integrator)
-        self._integrate = _INTEGRATE[self.integrator]
         self.n = self.spec.n
         self.joint_names = self.spec.joint_names
-        self._actuation = Actuation(self.spec, native_route=route == "native", dt=step,
-                                    integrator=self.integrator)
+        self._actuation = Actuation(self.spec)
         self.actuators = self._actuation.models
-        self.model = build_plant_model(self.spec, dt=step, integrator=self.integrator,
-                                       lugre_integrated=route == "callbacks",
-                                       configure=self._actuation.configure)
+        self.model = build_plant_model(self.spec, dt=self.dt / self.substeps,
+                                       integrator=self.integrator)
+        self._actuation.bind(self.model)
         self._model = copy.copy(self.model)  # the working copy that steps
         self.data = mujoco.MjData(self._model)
         lugre = [(j, joint.name) for j, joint in enumerate(self.spec.joints)
                  if joint.friction.model is FrictionModel.lugre]
         self.layout = StateLayout(self.model, self.actuators, lugre)
         self.state_names = self.layout.names
-        self._actuation.bind(self._model, self.data)
-        native_bristles = route == "native"
-        self._automaton = Automaton(self.spec.joints, self._model, self.data, step,
-                                    self.layout.bristles() if native_bristles else {})
-        self._callbacks = self._make_callbacks(lugre, not native_bristles)
-        d = self.data  # views into the data, cached: each attribute access makes a new array
-        self._qpos, self._qvel, self._act = d.qpos, d.qvel, d.act
-        self._ctrl = d.ctrl
-        self._ctrl_pad = [0.0] * (self.model.nu - self.n)
-        self._warnings = [(name, d.warning[int(getattr(mujoco.mjtWarning, f"mjWARN_BAD{name}"))])
-                          for name in ("QPOS", "QVEL", "QACC")]
+        self.hold_inertia = HOLD_INERTIA * _largest_inertia(self.model)
+        frictions = [j.friction for j in self.spec.joints]
+        self.viscous = np.array([f.damping for f in frictions])
+        """Viscous friction coefficient of each joint (0 without friction), (n,)."""
+        self._lower = [j.limits[0] if j.limits else -math.inf for j in self.spec.joints]
+        self._upper = [j.limits[1] if j.limits else math.inf for j in self.spec.joints]
+        self._hooks = self._python_hooks()
+        self._c = _CPlant(self)
         self._nan = np.full(self.n, np.nan)
-        self._no_limit = [0.0] * self.n
-        self.record = StepRecord(fric=self._no_limit, limit=self._no_limit)
-        self._prepared = False
         self.reset()
 
-    def _make_callbacks(self, lugre: list[tuple[int, str]],
-                        bristles: bool) -> _callbacks.PluginCallbacks | None:
-        entries: list[tuple[int, _callbacks.Integrated, int]] = [
-            (j, self.actuators[j], j) for j in self._actuation.integrated]
-        if bristles:
-            by_joint = {L.joint: L for L in self._automaton.lugre.joints}
-            entries += [(self.model.actuator(name + LUGRE_SUFFIX).id,
-                         LuGreBristles(by_joint[j]), j) for j, name in lugre]
-        return _callbacks.PluginCallbacks(self._model, self.data, entries) if entries else None
+    def _python_hooks(self) -> PythonHooks | None:
+        """The C plant's hooks into the Python actuators, or None when there are none."""
+        act = self._actuation
+        entries = [(j, self.actuators[j], j) for j in act.integrated]
+        callbacks = PluginCallbacks(self._model, self.data, entries) if entries else None
+        check = (lambda: act.first_problem(self.data.act)) if act.unbounded else None
+        return PythonHooks(callbacks, check) if callbacks or check else None
 
     def __repr__(self) -> str:
-        return f"Plant({self.spec.name!r}, n={self.n}, dt={self.dt:g}, route={self.route!r})"
+        return f"Plant({self.spec.name!r}, n={self.n}, dt={self.dt:g})"
 
     # --- state -------------------------------------------------------------------------------
     @property
@@ -205,12 +182,7 @@ class Plant:
     @property
     def modes(self) -> np.ndarray:
         """Friction/limit mode of each joint (``FrictionMode`` values), int8 (n,) (a copy)."""
-        return np.array(self._automaton.modes, dtype=np.int8)
-
-    @property
-    def viscous(self) -> np.ndarray:
-        """Viscous friction coefficient of each joint (0 without friction), (n,)."""
-        return self._automaton.viscous
+        return self._c.modes()
 
     @property
     def command_limit(self) -> np.ndarray:
@@ -221,8 +193,12 @@ class Plant:
         """Back to t = 0, q = q̇ = 0 (clipped to the limits), the actuators' initial states."""
         mujoco.mj_resetData(self._model, self.data)
         self._actuation.reset(self.data)
-        self.data.qpos[:] = self._automaton.limits.clip(self.data.qpos.tolist())
+        self.data.qpos[:] = self._clip(self.data.qpos)
         self._resync()
+
+    def _clip(self, q: np.ndarray) -> list[float]:
+        """q moved onto the joint limits where it is beyond them."""
+        return [min(max(x, lo), hi) for x, lo, hi in zip(q.tolist(), self._lower, self._upper)]
 
     def set_state(self, *, q: Any = None, qd: Any = None, t: float | None = None,
                   **states: Any) -> None:
@@ -250,7 +226,7 @@ class Plant:
             full = np.full(self.n, np.nan)
             full[joints] = d.act[adrs]
             d.act[adrs] = self._joint_values(name, value, full)[joints]
-        d.qpos[:] = self._automaton.limits.clip(d.qpos.tolist())
+        d.qpos[:] = self._clip(d.qpos)
         self._resync()
 
     def balance_pressures(self) -> None:
@@ -264,7 +240,7 @@ class Plant:
         d = self.data
         saved = d.qvel.copy()
         d.qvel[:] = 0.0
-        with self.scope():
+        with suspended():  # only the bias forces are wanted: no actuator callbacks
             mujoco.mj_forward(self._model, d)
         gravity = d.qfrc_bias.copy()
         d.qvel[:] = saved
@@ -291,12 +267,8 @@ class Plant:
         self._resync()
 
     def _resync(self) -> None:
-        """Modes from the state; the actuators' between-step memories cleared."""
-        self._automaton.resync()
-        self._actuation.resync(self.data)
-        for _, warning in self._warnings:
-            warning.number = 0
-        self._prepared = False
+        """Modes from the state, MuJoCo's warnings cleared."""
+        self._c.resync()
 
     def states(self) -> dict[str, np.ndarray]:
         """Every named state, each shape (n,) with NaN at joints without it."""
@@ -310,7 +282,7 @@ class Plant:
             t=float(d.time), q=d.qpos.copy(), qd=d.qvel.copy(),
             dP=states["dP"] if "dP" in states else self._nan.copy(),
             Q=states["Q"] if "Q" in states else self._nan.copy(),
-            mode=np.array(self._automaton.modes), states=states, joint_names=self.joint_names,
+            mode=self._c.modes(), states=states, joint_names=self.joint_names,
         )
 
     def actuator_forces(self) -> np.ndarray:
@@ -357,17 +329,10 @@ class Plant:
 
     # --- stepping ----------------------------------------------------------------------------
     def scope(self) -> contextlib.AbstractContextManager[None]:
-        """Context in which the plant may step: installs its MuJoCo callbacks if it needs any.
-
-        A plant without callback-route actuators installs none, but suspends any that someone
-        else installed while it steps (they would see its user actuators). :meth:`step` enters
-        the scope by itself; ``simulate`` enters it once around a whole run.
-        """
-        if self._callbacks is not None:
-            return _callbacks.installed(self._callbacks)
-        if self.model.na:  # user dynamics: keep anyone else's callbacks away from our states
-            return _callbacks.suspended()
-        return contextlib.nullcontext()
+        """Context in which the plant may step: a plant with Python actuators holds the lock of
+        MuJoCo's process-global callbacks (:func:`maniplab.mjcb.exclusive`); the others need
+        nothing. :meth:`step` and ``simulate`` enter it themselves."""
+        return exclusive() if self._hooks is not None else contextlib.nullcontext()
 
     def step(self, commands: Any = None) -> None:
         """Advance one step of ``dt`` with the commands (array (n,) or mapping), held over it."""
@@ -379,100 +344,159 @@ class Plant:
     def prepare(self, u: list[float]) -> None:
         """First half of a step at the current time (call inside :meth:`scope`).
 
-        Clips and writes the commands, sets the actuator and friction forces for the step, holds
-        the joints that are stuck or on a limit, and evaluates the dynamics at the step's start
-        (MuJoCo's forward pass, which :meth:`advance` integrates from); from it the automaton
-        decides the modes of the step.
+        Clips and writes the commands, sets the friction forces for the step, holds the joints
+        that are stuck or on a limit, and evaluates the dynamics at the step's start (MuJoCo's
+        forward pass, which :meth:`advance` integrates from); from it the automaton decides the
+        modes of the step.
 
         Args:
             u: commands, one per joint (valve current A, or force N / torque N·m, or a plugin's).
         """
-        self._u = self._actuation.clip(u)
-        q0, v0, act = self._start()
-        record = self.record
-        record.t, record.q, record.qd, record.act = self.data.time, q0, v0, act
-        record.u, record.mode = self._u, list(self._automaton.modes)
+        self.check(self._c.prepare(u))
         self._prepared = True
-
-    def _start(self) -> tuple[list[float], list[float], list[float]]:
-        """The start of one MuJoCo step: forces, holds, the forward pass, the automaton's
-        decisions. Returns the step's (q0, v0, act0)."""
-        u = self._u
-        q0, v0, act = self._qpos.tolist(), self._qvel.tolist(), self._act.tolist()
-        ctrl = u + self._ctrl_pad
-        self._actuation.prepare(q0, act, u, ctrl)
-        self._ctrl[:] = ctrl
-        automaton = self._automaton
-        fric = automaton.forces(v0, act)
-        automaton.hold()
-        m, d = self._model, self.data
-        mujoco.mj_checkPos(m, d)  # what mj_step does before its forward pass
-        mujoco.mj_checkVel(m, d)
-        mujoco.mj_forward(m, d)
-        if automaton.active:
-            fric = automaton.settle(v0, act, fric)
-        mujoco.mj_checkAcc(m, d)
-        self._step = (q0, v0, act, fric)
-        return q0, v0, act
 
     def advance(self) -> None:
         """Second half of a step (after :meth:`prepare`, inside :meth:`scope`): integrate dt.
 
         Then the automaton's events at the step's end (held joints put back, stick and limit
-        events), the native groups' and LuGre's states, and the instability checks; as many times
-        as the step has sub-steps (see :attr:`substeps`), the commands held.
+        events) and the instability checks; as many times as the step has sub-steps (see
+        :attr:`substeps`), the commands held.
         """
-        if not self._prepared:
+        if not getattr(self, "_prepared", False):
             raise RuntimeError("Plant.advance() needs a prepare() first")
         self._prepared = False
-        self._finish()
-        for _ in range(self.substeps - 1):
-            self._start()
-            self._finish()
+        self.check(self._c.advance())
 
-    def _finish(self) -> None:
-        """The end of one MuJoCo step: integrate, the automaton's events, the actuators."""
-        self._integrate(self._model, self.data)
-        q0, v0, act0, fric = self._step
-        q1, v1 = self._qpos.tolist(), self._qvel.tolist()
-        moved, limit = self._automaton.finish(q0, v0, q1, v1, fric)
-        if moved:
-            self._qpos[:] = q1
-            self._qvel[:] = v1
-        if not math.isfinite(math.fsum(v1)) or any(w.number for _, w in self._warnings):
-            self._unstable_motion()
-        self.record.fric, self.record.limit = fric, limit or self._no_limit
-        act = self._act.tolist()
-        problem = self._actuation.finish(q0, q1, act0, self._u, act)
-        self._automaton.advance_bristles(q0, q1, act0, act)
-        self._act[:] = act
-        if problem is not None:
-            resolved = self._model.opt.timestep <= self.step_limit.dt
-            raise InstabilityError(problem[1], time=self.t, joint=self.joint_names[problem[0]],
-                                   dt=self.dt, resolved=resolved)
+    @property
+    def record(self) -> StepRecord:
+        """What the last step published (the prepared step's start, its command and modes, the
+        forces of the last advanced step)."""
+        return self._c.record()
 
     @property
     def tau_fric(self) -> np.ndarray:
         """Friction force on each joint over the last step (stiction's holding force when stuck,
         viscous part at the step's start included), N or N·m, (n,)."""
-        return np.array(self.record.fric) - self.viscous * np.array(self.record.qd or self._nan)
+        r = self.record
+        return np.array(r.fric) - self.viscous * np.array(r.qd)
 
     @property
     def tau_limit(self) -> np.ndarray:
         """Force of the limit stops over the last step (0 off the limits), N or N·m, (n,)."""
         return np.array(self.record.limit)
 
-    def _unstable_motion(self) -> None:
-        for name, warning in self._warnings:
-            if warning.number:
-                joint = self.joint_names[warning.lastinfo] if warning.lastinfo < self.n else None
-                raise InstabilityError(
-                    f"MuJoCo warned of a NaN, infinite or huge value (> 1e10) in {name}",
-                    time=self.t, joint=joint, dt=self.dt)
-        bad = np.flatnonzero(~np.isfinite(self.data.qvel) | ~np.isfinite(self.data.qpos))
-        joint = self.joint_names[bad[0]] if bad.size else None
-        raise InstabilityError("the joint velocity is not finite (NaN or infinity)",
-                               time=self.t, joint=joint, dt=self.dt)
+    def check(self, status: int) -> None:
+        """Raise the error a call of the C plant returned (``native.OK``, ``PAUSED``: nothing).
+
+        Raises:
+            InstabilityError: unstable motion, or a state beyond its bound (naming the joint).
+            PluginError: a Python actuator failed.
+        """
+        if status in (native.OK, native.PAUSED):
+            return
+        error = self._c.error()
+        joint = self.joint_names[error.joint] if 0 <= error.joint < self.n else None
+        if status == native.UNSTABLE_MOTION:
+            raise InstabilityError(_motion_problem(error.index), time=self.t, joint=joint,
+                                   dt=self.dt)
+        if status == native.STATE_BOUND:
+            text = self._actuation.problem(error.joint, self.data.act, error.index)
+            resolved = self._model.opt.timestep <= self.step_limit.dt
+            raise InstabilityError(text, time=self.t, joint=joint, dt=self.dt, resolved=resolved)
+        if self._hooks is not None and self._hooks.error is not None:
+            self._hooks.raise_error()
+        raise PluginError(f"the plant stopped at t = {error.time:.6g} s (status {status})")
+
+
+def _motion_problem(warning: int) -> str:
+    """The message of an unstable motion: MuJoCo's warning ``warning`` (or -1: a velocity)."""
+    names = {int(getattr(mujoco.mjtWarning, f"mjWARN_BAD{name}")): name
+             for name in ("QPOS", "QVEL", "QACC")}
+    if warning in names:
+        return f"MuJoCo warned of a NaN, infinite or huge value (> 1e10) in {names[warning]}"
+    return "the joint velocity is not finite (NaN or infinity)"
+
+
+class _CPlant:
+    """The C plant of a :class:`Plant` (``ml_plant``): made, called and freed here."""
+
+    def __init__(self, plant: Plant) -> None:
+        self.lib = native.library()
+        self.n, self.na = plant.n, plant.model.na
+        joints = plant.spec.joints
+        hybrid = [j.friction.model is FrictionModel.hybrid for j in joints]
+        act = plant._actuation
+        keep = {
+            "lower": native.doubles(plant._lower), "upper": native.doubles(plant._upper),
+            "command_limit": native.doubles(act.limit), "slip": native.ints(hybrid),
+            "coulomb": native.doubles([j.friction.coulomb for j in joints]),
+            "stiction": native.doubles([j.friction.static for j in joints]),
+            "stribeck": native.doubles([j.friction.stribeck_velocity for j in joints]),
+            "stick_velocity": native.doubles([j.friction.stick_velocity for j in joints]),
+            "bound_adr": native.ints([i for _, i, _ in act.bounds]),
+            "bound_value": native.doubles([b for _, _, b in act.bounds]),
+            "bound_joint": native.ints([j for j, _, _ in act.bounds]),
+        }
+        config = native.Config(n=plant.n, substeps=plant.substeps,
+                               hold_inertia=plant.hold_inertia, nbounds=len(act.bounds), **keep)
+        self.model, self.data = plant._model, plant.data  # kept alive with the C plant
+        self.ptr = self.lib.ml_plant_new(self.model._address, self.data._address,
+                                         ctypes.byref(config))
+        if not self.ptr:
+            raise InputError(f"the plant of {plant.spec.name} could not be made (out of memory?)")
+        hooks = plant._hooks
+        if hooks is not None:
+            self.lib.ml_plant_set_python(self.ptr, hooks.actuator, hooks.check)
+        self._u = (ctypes.c_double * plant.n)()
+        self._modes = np.zeros(plant.n, dtype=np.int8)
+
+    def __del__(self) -> None:
+        if getattr(self, "ptr", None):
+            self.lib.ml_plant_free(self.ptr)
+            self.ptr = None
+
+    def resync(self) -> None:
+        self.lib.ml_plant_resync(self.ptr)
+
+    def prepare(self, u: list[float]) -> int:
+        self._u[:] = u
+        self._t = float(self.data.time)
+        return int(self.lib.ml_plant_prepare(self.ptr, self._u))
+
+    def advance(self) -> int:
+        return int(self.lib.ml_plant_advance(self.ptr))
+
+    def run(self, run: native.RunStruct) -> int:
+        return int(self.lib.ml_plant_run(self.ptr, ctypes.byref(run)))
+
+    def modes(self) -> np.ndarray:
+        self.lib.ml_plant_modes(self.ptr, native.pointer(self._modes, ctypes.c_byte))
+        return self._modes.copy()
+
+    def error(self) -> native.Error:
+        return self.lib.ml_plant_error(self.ptr)
+
+    def record(self) -> StepRecord:
+        n, na = self.n, self.na
+        arrays = [np.zeros(n), np.zeros(n), np.zeros(na), np.zeros(n), np.zeros(n, np.int8),
+                  np.zeros(n), np.zeros(n)]
+        ptrs = [native.pointer(a, ctypes.c_byte if a.dtype == np.int8 else ctypes.c_double)
+                for a in arrays]
+        self.lib.ml_plant_record(self.ptr, *ptrs)
+        q, qd, act, u, mode, fric, limit = (a.tolist() for a in arrays)
+        return StepRecord(t=getattr(self, "_t", 0.0), q=q, qd=qd, act=act, u=u, mode=mode,
+                          fric=fric, limit=limit)
+
+
+def _largest_inertia(model: mujoco.MjModel) -> float:
+    """The largest diagonal entry of M at the model's reference pose (kg, kg·m²), at least 1."""
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    mujoco.mj_comPos(model, data)
+    mujoco.mj_crb(model, data)
+    dense = np.zeros((model.nv, model.nv))
+    mujoco.mj_fullM(model, data, dense)
+    return max(1.0, float(np.max(np.diag(dense))))
 
 
 _STATE = (int(mujoco.mjtState.mjSTATE_FULLPHYSICS) | int(mujoco.mjtState.mjSTATE_CTRL)
@@ -483,13 +507,6 @@ _INTEGRATORS = {
     "Euler": mujoco.mjtIntegrator.mjINT_EULER,
     "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT,
     "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
-}
-
-_INTEGRATE = {  # what mj_step does after its forward pass, which Plant.prepare makes
-    int(mujoco.mjtIntegrator.mjINT_RK4): lambda m, d: mujoco.mj_RungeKutta(m, d, 4),
-    int(mujoco.mjtIntegrator.mjINT_EULER): mujoco.mj_Euler,
-    int(mujoco.mjtIntegrator.mjINT_IMPLICIT): mujoco.mj_implicit,
-    int(mujoco.mjtIntegrator.mjINT_IMPLICITFAST): mujoco.mj_implicit,
 }
 
 

@@ -43,7 +43,8 @@ class Signal:
         raise NotImplementedError
 
     def sample(self, t: np.ndarray) -> np.ndarray:
-        """Values at the times ``t``, same shape."""
+        """Values at the times ``t``, same shape (the built-in signals evaluate them as arrays,
+        to round-off the values of their calls)."""
         t = np.asarray(t, dtype=float)
         return np.array([self(float(x)) for x in t.reshape(-1)]).reshape(t.shape)
 
@@ -87,6 +88,9 @@ class Constant(Signal):
     def __call__(self, t: float) -> float:
         return self.value
 
+    def sample(self, t: np.ndarray) -> np.ndarray:
+        return np.full(np.shape(t), self.value)
+
     def __repr__(self) -> str:
         return f"constant({_fmt(self.value)})"
 
@@ -100,6 +104,9 @@ class Step(Signal):
 
     def __call__(self, t: float) -> float:
         return self.amplitude if t >= self.t0 - EPS else 0.0
+
+    def sample(self, t: np.ndarray) -> np.ndarray:
+        return np.where(np.asarray(t, dtype=float) >= self.t0 - EPS, self.amplitude, 0.0)
 
     def __repr__(self) -> str:
         return f"step({_fmt(self.amplitude)}, t0={_fmt(self.t0)})"
@@ -121,6 +128,11 @@ class Impulse(Signal):
         inside = self.t0 - EPS <= t < self.t0 + self.width - EPS
         return self.area / self.width if inside else 0.0
 
+    def sample(self, t: np.ndarray) -> np.ndarray:
+        t = np.asarray(t, dtype=float)
+        inside = (self.t0 - EPS <= t) & (t < self.t0 + self.width - EPS)
+        return np.where(inside, self.area / self.width, 0.0)
+
     def __repr__(self) -> str:
         return f"impulse({_fmt(self.area)}, t0={_fmt(self.t0)}, width={_fmt(self.width)})"
 
@@ -139,6 +151,11 @@ class Sine(Signal):
             return 0.0
         angle = 2.0 * math.pi * self.frequency * (t - self.t0) + self.phase
         return self.amplitude * math.sin(angle)
+
+    def sample(self, t: np.ndarray) -> np.ndarray:
+        t = np.asarray(t, dtype=float)
+        angle = 2.0 * math.pi * self.frequency * (t - self.t0) + self.phase
+        return np.where(t < self.t0 - EPS, 0.0, self.amplitude * np.sin(angle))
 
     def __repr__(self) -> str:
         options = (("phase", self.phase), ("t0", self.t0))
@@ -164,6 +181,11 @@ class Ramp(Signal):
         end = t if self.t1 is None else min(t, self.t1)
         return self.slope * (end - self.t0)
 
+    def sample(self, t: np.ndarray) -> np.ndarray:
+        t = np.asarray(t, dtype=float)
+        end = t if self.t1 is None else np.minimum(t, self.t1)
+        return np.where(t <= self.t0, 0.0, self.slope * (end - self.t0))
+
     def __repr__(self) -> str:
         extra = f", t1={_fmt(self.t1)}" if self.t1 is not None else ""
         return f"ramp({_fmt(self.slope)}, t0={_fmt(self.t0)}{extra})"
@@ -181,6 +203,12 @@ class Sum(Signal):
             total += term(t)
         return total
 
+    def sample(self, t: np.ndarray) -> np.ndarray:
+        total = np.zeros(np.shape(t))
+        for term in self.terms:
+            total += term.sample(t)
+        return total
+
     def __repr__(self) -> str:
         text = " + ".join(repr(term) for term in self.terms)
         return text.replace("+ -", "- ")
@@ -195,6 +223,9 @@ class Scaled(Signal):
 
     def __call__(self, t: float) -> float:
         return self.gain * self.signal(t)
+
+    def sample(self, t: np.ndarray) -> np.ndarray:
+        return self.gain * self.signal.sample(t)
 
     def __repr__(self) -> str:
         inner = repr(self.signal)

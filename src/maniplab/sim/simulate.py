@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import itertools
+import ctypes
 import json
 import math
 import platform
@@ -17,6 +17,7 @@ from maniplab.actuators.base import STANDARD_COMMANDS, STANDARD_STATES
 from maniplab.builtin import resolve_spec
 from maniplab.mjcf_gen.names import END_EFFECTOR
 from maniplab.progress import Progress
+from maniplab.sim import native
 from maniplab.sim.errors import InputError
 from maniplab.sim.plant import Plant, SpecLike, integrator_name
 from maniplab.sim.run import Run
@@ -35,8 +36,7 @@ PROGRESS_STEPS = 200_000
 def simulate(spec_or_plant: SpecLike | Plant, *, inputs: Mapping[str | int, Any] | None = None,
              controller: Controller | None = None, duration: float, dt: float | None = None,
              overrides: Mapping[str, Any] | None = None, initial: Mapping[str, Any] | None = None,
-             sample_dt: float | None = None, route: str | None = None,
-             integrator: str | None = None, label: str | None = None,
+             sample_dt: float | None = None, integrator: str | None = None, label: str | None = None,
              progress: bool | None = None) -> Run:
     """Simulate an arm and record its signals.
 
@@ -60,7 +60,7 @@ def simulate(spec_or_plant: SpecLike | Plant, *, inputs: Mapping[str | int, Any]
             "gravity"`` sets the pressures that hold the arm against gravity at the initial pose.
         sample_dt: recording interval, s (a multiple of dt; default every step, but at most
             1000 samples per second).
-        route, integrator: see :class:`Plant` (defaults "native", "RK4"; not with a Plant).
+        integrator: see :class:`Plant` (default "RK4"; not with a Plant).
         label: a name for legends, stored in ``meta["label"]``.
         progress: show a progress bar on stderr (None: on a terminal, for runs of at least
             ``PROGRESS_STEPS`` steps).
@@ -78,7 +78,7 @@ def simulate(spec_or_plant: SpecLike | Plant, *, inputs: Mapping[str | int, Any]
         PluginError: an actuator plugin raised.
         SpecError: the spec or an override is invalid.
     """
-    plant = _plant(spec_or_plant, dt=dt, overrides=overrides, route=route, integrator=integrator)
+    plant = _plant(spec_or_plant, dt=dt, overrides=overrides, integrator=integrator)
     if not (isinstance(duration, (int, float)) and math.isfinite(duration) and duration > 0.0):
         raise InputError(f"duration must be a positive number of seconds, got {duration!r}")
     if initial:
@@ -86,51 +86,26 @@ def simulate(spec_or_plant: SpecLike | Plant, *, inputs: Mapping[str | int, Any]
     drive = _inputs(plant, inputs or {})
     steps = max(1, round(duration / plant.dt))
     every = _sample_every(plant.dt, sample_dt)
-    recorder = _Recorder(plant)
-    t0 = plant.t
     period = _controller_period(controller)
-    held = [0.0] * plant.n
-    next_call = t0
-    dt, prepare, advance = plant.dt, plant.prepare, plant.advance
-    ticks = min(100, steps)
-    bar = Progress(ticks, f"simulating {plant.spec.name}",
+    loop = _Loop(plant, steps, every, drive, controller, period)
+    bar = Progress(math.ceil(steps / loop.CHUNK), f"simulating {plant.spec.name}",
                    enabled=progress if progress is not None else
                    (None if steps >= PROGRESS_STEPS else False))
-    tick = steps // ticks
-    with plant.scope():
-        for k in range(steps + 1):
-            t = t0 + k * dt
-            if bar.enabled and k % tick == 0 and k:
-                bar.step(f"t = {t:.3g} s")
-            if controller is not None and k < steps and t >= next_call - 1e-9 * dt:
-                held = _call(controller, t, plant)
-                next_call = next_call + period if period else t
-            u = list(held)
-            for j, signal in drive:
-                u[j] += signal(t)
-            if not math.isfinite(math.fsum(u)):
-                raise InputError(f"non-finite command at t = {t:.6g} s: "
-                                 f"{dict(zip(plant.joint_names, u))}")
-            prepare(u)
-            record = k % every == 0 or k == steps
-            if record:
-                recorder.state(t)
-            if k == steps:
-                break
-            advance()
-            if record:
-                recorder.forces()
-    bar.close()
-    recorder.forces()
+    try:
+        with plant.scope():
+            while loop.go():
+                bar.step(f"t = {plant.t:.3g} s")
+    finally:
+        bar.close()
     meta = _meta(plant, inputs or {}, controller, period, overrides, initial, steps, every, label)
-    run = Run(t=recorder.times(), signals=recorder.signals(), spec=plant.spec, meta=meta)
+    run = Run(t=loop.times(), signals=loop.signals(), spec=plant.spec, meta=meta)
     # a controller that logs its own signals adds them (any controller with annotate(run) -> Run)
     annotate = getattr(controller, "annotate", None)
     return annotate(run) if callable(annotate) else run
 
 
 def _plant(spec_or_plant: SpecLike | Plant, *, dt: float | None, overrides: Any,
-           route: str | None, integrator: str | None) -> Plant:
+           integrator: str | None) -> Plant:
     if isinstance(spec_or_plant, Plant):
         plant = spec_or_plant
         if overrides:
@@ -139,15 +114,14 @@ def _plant(spec_or_plant: SpecLike | Plant, *, dt: float | None, overrides: Any,
         if dt is not None and not math.isclose(dt, plant.dt, rel_tol=1e-12):
             raise InputError(f"the plant steps with dt={plant.dt:g}; got dt={dt!r} (build "
                              f"Plant(spec, dt={dt!r}) for another step)")
-        for name, value, have in (("route", route, plant.route),
-                                  ("integrator", integrator, integrator_name(plant.integrator))):
-            if value is not None and value != have:
-                raise InputError(f"the plant's {name} is {have!r}; got {name}={value!r}")
+        have = integrator_name(plant.integrator)
+        if integrator is not None and integrator != have:
+            raise InputError(f"the plant's integrator is {have!r}; got integrator={integrator!r}")
         return plant
     spec = resolve_spec(spec_or_plant)
     if overrides:
         spec = spec.with_overrides(overrides)
-    return Plant(spec, dt=dt, route=route or "native", integrator=integrator or "RK4")
+    return Plant(spec, dt=dt, integrator=integrator or "RK4")
 
 
 def _set_initial(plant: Plant, initial: Mapping[str, Any]) -> None:
@@ -219,47 +193,117 @@ def _call(controller: Controller, t: float, plant: Plant) -> list[float]:
         raise InputError(f"controller at t = {t:.6g} s: {exc}") from None
 
 
-class _Recorder:
-    """Collects what the plant publishes each step (:class:`~maniplab.sim.plant.StepRecord`) as
-    Python lists (cheaper per step than numpy rows) and builds the Run's arrays."""
+def _call_times(t0: float, dt: float, steps: int, period: float | None) -> np.ndarray:
+    """The times the run loop calls the controller at (as ``ml_plant_run`` decides them)."""
+    out, next_call = [], t0
+    for k in range(steps):
+        t = t0 + k * dt
+        if t >= next_call - 1e-9 * dt:
+            out.append(t)
+            next_call = next_call + period if period else t
+    return np.array(out)
 
-    def __init__(self, plant: Plant) -> None:
-        self.plant = plant
-        self._t: list[float] = []
-        self._q: list[list[float]] = []
-        self._qd: list[list[float]] = []
-        self._act: list[list[float]] = []
-        self._ctrl: list[list[float]] = []
-        self._mode: list[list[int]] = []
-        self._fric: list[list[float]] = []
-        self._limit: list[list[float]] = []
 
-    def state(self, t: float) -> None:
-        """Record the prepared step's start."""
-        r = self.plant.record
-        self._t.append(t)
-        self._q.append(r.q)
-        self._qd.append(r.qd)
-        self._act.append(r.act)
-        self._ctrl.append(r.u)
-        self._mode.append(r.mode)
+class _Loop:
+    """One run of the plant in C (``ml_plant_run``): its inputs, controller and record buffers.
 
-    def forces(self) -> None:
-        """Record the forces of the last advanced step for the samples that lack them."""
-        r = self.plant.record
-        while len(self._fric) < len(self._t):
-            self._fric.append(r.fric)
-            self._limit.append(r.limit)
+    The C loop pauses every ``CHUNK`` steps (:meth:`go` returns True), so that a progress bar
+    moves and Ctrl-C is answered; a controller written in Python is called back at its samples,
+    one that has a native form (``controller.native(plant, times)``) runs inside the loop.
+    """
+
+    CHUNK = 20_000
+
+    def __init__(self, plant: Plant, steps: int, every: int, drive: list[tuple[int, Signal]],
+                 controller: Controller | None, period: float | None) -> None:
+        self.plant, n, na = plant, plant.n, plant.model.na
+        t0, dt = plant.t, plant.dt
+        self.table = None
+        if drive:
+            times = t0 + np.arange(steps + 1) * dt
+            self.table = np.zeros((steps + 1, n))
+            for j, signal in drive:
+                self.table[:, j] += signal.sample(times)
+        rows = steps // every + 2
+        self.buffers = {"t": np.zeros(rows), "q": np.zeros((rows, n)), "qd": np.zeros((rows, n)),
+                        "act": np.zeros((rows, max(na, 1))), "ctrl": np.zeros((rows, n)),
+                        "mode": np.zeros((rows, n), np.int8), "fric": np.zeros((rows, n)),
+                        "limit": np.zeros((rows, n))}
+        self.held = np.zeros(n)
+        self.error: BaseException | None = None
+        function, context = self._controller(controller, steps, period)
+        b = self.buffers
+        self.run = native.RunStruct(
+            steps=steps, t0=t0, dt=dt, k=0, max_steps=self.CHUNK,
+            inputs=None if self.table is None else native.pointer(self.table),
+            held=native.pointer(self.held), controller=function, controller_context=context,
+            period=period or 0.0, next_call=t0, every=every, rows=0,
+            t=native.pointer(b["t"]), q=native.pointer(b["q"]), qd=native.pointer(b["qd"]),
+            act=native.pointer(b["act"]), ctrl=native.pointer(b["ctrl"]),
+            mode=native.pointer(b["mode"], ctypes.c_byte), fric=native.pointer(b["fric"]),
+            limit=native.pointer(b["limit"]))
+
+    def _controller(self, controller: Controller | None, steps: int,
+                    period: float | None) -> tuple[int | None, int | None]:
+        """The C function and context that the loop calls the controller through."""
+        if controller is None:
+            return None, None
+        make = getattr(controller, "native", None)
+        if callable(make):
+            times = _call_times(self.plant.t, self.plant.dt, steps, period)
+            self._native = make(self.plant, times)
+            if self._native is not None:
+                return int(self._native.function), int(self._native.context)
+        self._trampoline = native.CONTROLLER(self._call)
+        self._python = controller
+        return ctypes.cast(self._trampoline, ctypes.c_void_p).value, None
+
+    def _call(self, context: Any, t: float, m: Any, d: Any, u: Any) -> int:
+        try:
+            held = _call(self._python, t, self.plant)
+            for j, x in enumerate(held):
+                u[j] = x
+            return 0
+        except BaseException as exc:  # noqa: BLE001 - raised by go() after the loop stops
+            self.error = exc
+            return 1
+
+    def go(self) -> bool:
+        """Run on; True when the loop paused (call again), False when the run is done.
+
+        Raises:
+            InputError: a non-finite command (of the inputs or a controller).
+            InstabilityError, PluginError: the plant's errors (:meth:`Plant.check`).
+            Any exception the Python controller raised.
+        """
+        status = self.plant._c.run(self.run)
+        if status == native.PAUSED:
+            return True
+        if status == native.CONTROLLER_ERROR:
+            if self.error is not None:
+                raise self.error
+            error = self.plant._c.error()
+            raise InputError(f"controller at t = {error.time:.6g} s: its command is not finite "
+                             "(NaN or infinity)")
+        if status == native.BAD_COMMAND:
+            k = self.run.k
+            u = self.held + (self.table[k] if self.table is not None else 0.0)
+            t = self.plant._c.error().time
+            raise InputError(f"non-finite command at t = {t:.6g} s: "
+                             f"{dict(zip(self.plant.joint_names, u.tolist()))}")
+        self.plant.check(status)
+        return False
 
     def times(self) -> np.ndarray:
-        return np.array(self._t)
+        return self.buffers["t"][: self.run.rows].copy()
 
     def signals(self) -> dict[str, np.ndarray]:
-        p = self.plant
-        q, qd, ctrl = _matrix(self._q, p.n), _matrix(self._qd, p.n), _matrix(self._ctrl, p.n)
-        act = _matrix(self._act, p.model.na)
+        p, rows = self.plant, self.run.rows
+        b = {k: v[:rows] for k, v in self.buffers.items()}
+        q, qd, ctrl = b["q"].copy(), b["qd"].copy(), b["ctrl"].copy()
+        act = b["act"][:, : p.model.na]
         out: dict[str, np.ndarray] = {"q": q, "qd": qd}
-        nan = np.full((len(self._t), p.n), np.nan)
+        nan = np.full((rows, p.n), np.nan)
         out.update({name: nan.copy() for name in STANDARD_STATES})
         out.update(p.layout.read(act))
         out["ctrl"] = ctrl
@@ -267,17 +311,11 @@ class _Recorder:
             mine = [a.command == name for a in p.actuators]
             out[name] = np.where(mine, ctrl, np.nan)
         out["tau_act"] = p.actuator_forces_at(q, qd, act, ctrl)
-        out["tau_fric"] = _matrix(self._fric, p.n) - p.viscous * qd  # applied + viscous at t_k
-        out["tau_limit"] = _matrix(self._limit, p.n)
-        out["mode"] = _matrix(self._mode, p.n).astype(np.int8)
+        out["tau_fric"] = b["fric"] - p.viscous * qd  # applied + viscous at t_k
+        out["tau_limit"] = b["limit"].copy()
+        out["mode"] = b["mode"].copy()
         out["ee_pos"] = _end_effector(p.model, q)
         return out
-
-
-def _matrix(rows: list, width: int) -> np.ndarray:
-    """(N, width) float array from N rows of numbers (several times faster than np.array)."""
-    flat = np.fromiter(itertools.chain.from_iterable(rows), dtype=float, count=len(rows) * width)
-    return flat.reshape(len(rows), width)
 
 
 def _end_effector(model: mujoco.MjModel, q: np.ndarray) -> np.ndarray:
@@ -298,7 +336,6 @@ def _meta(plant: Plant, inputs: Mapping[Any, Any], controller: Controller | None
     meta: dict[str, Any] = {
         "dt": plant.dt,
         "integrator": integrator_name(plant.integrator),
-        "route": plant.route,
         "steps": steps,
         "sample_dt": every * plant.dt,
         "inputs": {str(k): repr(as_signal(v)) for k, v in inputs.items()},

@@ -1,0 +1,619 @@
+/* maniplab's plant in C: the friction/limit automaton around MuJoCo's step (see plant.h).
+
+   Each joint is in one mode: SLIP (it moves, with its Coulomb/Stribeck friction applied), STICK
+   (held at rest by stiction) or AT_LOWER / AT_UPPER (held on a limit).
+
+   Holding is exact, not a stiff spring: a held joint gets an armature of `hold_inertia` (a large
+   multiple of the arm's largest inertia) on the plant's working model, so MuJoCo's own
+   factorisation of M solves the constrained dynamics (the free joints' accelerations
+   M_FF^-1 (tau_F - b_F), the paper's eq. 8, to ~1e-12 relative) in every RK4 stage; the force
+   that holds the joint is read back as -I qacc (at t, for the decisions) and -I dqvel/h (over the
+   step, for the record). Mode changes take effect at step boundaries; events inside a step are
+   put on the nearer boundary where the step's start predicts them (a velocity reaching zero or
+   the stick velocity), else on its end. */
+#include "plant.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+struct ml_plant {
+  mjModel* m;
+  mjData* d;
+  int n, substeps, integrator;
+  double h;                  /* MuJoCo's step, s */
+  double hold;               /* armature of a held joint */
+  /* per joint (n) */
+  double *lower, *upper, *cmd_limit;
+  double *coulomb, *stiction, *stribeck, *stick_velocity, *breakaway, *slip_acc;
+  int* can_stick;
+  double* armature;          /* the model's own armature */
+  /* joint lists */
+  int nslip, nsticky, nlimited;
+  int *slip, *sticky, *limited;
+  int nbounds;
+  int *bound_adr, *bound_joint;
+  double* bound_value;
+  /* the automaton's state */
+  int* modes;
+  double* direction;         /* sign of a break-away's coming motion */
+  int nheld;
+  int* held;                 /* the joints held in the working model's armature */
+  /* the step */
+  double *u, *q0, *v0, *act0, *fric, *limit, *q1, *v1;
+  double* command;           /* a run's sample command before clipping */
+  /* the record of the last step (plant.h: ml_plant_record) */
+  double *rq, *rqd, *ract, *ru, *rfric, *rlimit;
+  signed char* rmode;
+  /* Python */
+  ml_actuator_fn python_actuator;
+  ml_check_fn python_check;
+  int callback_failed;
+  ml_error error;
+};
+
+/* --- memory ------------------------------------------------------------------------------- */
+static double* copy_or_zero(const double* src, int size) {
+  double* out = (double*)calloc(size > 0 ? size : 1, sizeof(double));
+  if (out && src) memcpy(out, src, size * sizeof(double));
+  return out;
+}
+
+static int* new_ints(int size) { return (int*)calloc(size > 0 ? size : 1, sizeof(int)); }
+
+void ml_plant_free(ml_plant* p) {
+  if (!p) return;
+  double* doubles[] = {p->lower, p->upper, p->cmd_limit, p->coulomb, p->stiction, p->stribeck,
+                       p->stick_velocity, p->breakaway, p->slip_acc, p->armature, p->bound_value,
+                       p->direction, p->u, p->command, p->q0, p->v0, p->act0, p->fric, p->limit, p->q1, p->v1,
+                       p->rq, p->rqd, p->ract, p->ru, p->rfric, p->rlimit};
+  int* ints[] = {p->can_stick, p->slip, p->sticky, p->limited, p->bound_adr, p->bound_joint,
+                 p->modes, p->held};
+  for (size_t i = 0; i < sizeof(doubles) / sizeof(doubles[0]); i++) free(doubles[i]);
+  for (size_t i = 0; i < sizeof(ints) / sizeof(ints[0]); i++) free(ints[i]);
+  free(p->rmode);
+  free(p);
+}
+
+ml_plant* ml_plant_new(mjModel* m, mjData* d, const ml_plant_config* c) {
+  int n = c->n, na = (int)m->na;
+  if (n < 1 || n != m->nv || n > m->nu || c->substeps < 1) return NULL;
+  ml_plant* p = (ml_plant*)calloc(1, sizeof(ml_plant));
+  if (!p) return NULL;
+  p->m = m;
+  p->d = d;
+  p->n = n;
+  p->substeps = c->substeps;
+  p->integrator = m->opt.integrator;
+  p->h = m->opt.timestep;
+  p->hold = c->hold_inertia;
+  p->lower = copy_or_zero(c->lower, n);
+  p->upper = copy_or_zero(c->upper, n);
+  p->cmd_limit = copy_or_zero(c->command_limit, n);
+  p->coulomb = copy_or_zero(c->coulomb, n);
+  p->stiction = copy_or_zero(c->stiction, n);
+  p->stribeck = copy_or_zero(c->stribeck, n);
+  p->stick_velocity = copy_or_zero(c->stick_velocity, n);
+  p->breakaway = copy_or_zero(NULL, n);
+  p->slip_acc = copy_or_zero(NULL, n);
+  p->can_stick = new_ints(n);
+  p->armature = copy_or_zero(m->dof_armature, n);
+  p->slip = new_ints(n);
+  p->sticky = new_ints(n);
+  p->limited = new_ints(n);
+  p->nbounds = c->nbounds;
+  p->bound_adr = new_ints(c->nbounds);
+  p->bound_joint = new_ints(c->nbounds);
+  p->bound_value = copy_or_zero(c->bound_value, c->nbounds);
+  p->modes = new_ints(n);
+  p->direction = copy_or_zero(NULL, n);
+  p->held = new_ints(n);
+  p->u = copy_or_zero(NULL, n);
+  p->command = copy_or_zero(NULL, n);
+  p->q0 = copy_or_zero(NULL, n);
+  p->v0 = copy_or_zero(NULL, n);
+  p->act0 = copy_or_zero(NULL, na);
+  p->fric = copy_or_zero(NULL, n);
+  p->limit = copy_or_zero(NULL, n);
+  p->q1 = copy_or_zero(NULL, n);
+  p->v1 = copy_or_zero(NULL, n);
+  p->rq = copy_or_zero(NULL, n);
+  p->rqd = copy_or_zero(NULL, n);
+  p->ract = copy_or_zero(NULL, na);
+  p->ru = copy_or_zero(NULL, n);
+  p->rfric = copy_or_zero(NULL, n);
+  p->rlimit = copy_or_zero(NULL, n);
+  p->rmode = (signed char*)calloc(n, 1);
+  if (!p->rmode || !p->rlimit || !p->held || !p->bound_value) {
+    ml_plant_free(p);
+    return NULL;
+  }
+  for (int i = 0; i < c->nbounds; i++) {
+    p->bound_adr[i] = c->bound_adr[i];
+    p->bound_joint[i] = c->bound_joint[i];
+  }
+  for (int j = 0; j < n; j++) {
+    if (c->slip[j]) {
+      p->slip[p->nslip++] = j;
+      p->breakaway[j] = p->coulomb[j] + p->stiction[j];
+      p->can_stick[j] = p->breakaway[j] > 0.0;
+      if (p->can_stick[j]) p->sticky[p->nsticky++] = j;
+    }
+    p->slip_acc[j] = p->breakaway[j] / p->hold;
+    if (isfinite(p->lower[j]) || isfinite(p->upper[j])) p->limited[p->nlimited++] = j;
+    p->direction[j] = 1.0;
+  }
+  /* MuJoCo factorises the mass matrix of a "simple" dof (one it found decoupled when compiling)
+     once, from the armature of that time: for holding to act, none is simple */
+  for (int j = 0; j < n; j++) m->dof_simplenum[j] = 0;
+  return p;
+}
+
+void ml_plant_set_python(ml_plant* p, ml_actuator_fn actuator, ml_check_fn check) {
+  p->python_actuator = actuator;
+  p->python_check = check;
+}
+
+/* --- Python actuators through MuJoCo's callbacks -------------------------------------------- */
+static ml_plant* g_python_plant = NULL;
+
+static mjtNum python_callback(int kind, const mjModel* m, const mjData* d, int id) {
+  ml_plant* p = g_python_plant;
+  double out = 0.0;
+  if (!p || p->m != m || p->d != d || p->callback_failed) return 0.0;
+  if (p->python_actuator(kind, id, &out) != 0) {
+    p->callback_failed = 1;
+    return 0.0;
+  }
+  return out;
+}
+
+static mjtNum act_dyn(const mjModel* m, const mjData* d, int id) {
+  return python_callback(0, m, d, id);
+}
+
+static mjtNum act_bias(const mjModel* m, const mjData* d, int id) {
+  return python_callback(1, m, d, id);
+}
+
+typedef struct {
+  mjfAct dyn, bias;
+  ml_plant* plant;
+  int active;
+} saved_callbacks;
+
+/* MuJoCo's callbacks are process-global: maniplab's Python side lets one plant with Python
+   actuators step at a time; nested plants (a controller stepping another) restore in order. */
+static saved_callbacks install(ml_plant* p) {
+  saved_callbacks s = {mjcb_act_dyn, mjcb_act_bias, g_python_plant, p->python_actuator != NULL};
+  if (s.active) {
+    g_python_plant = p;
+    mjcb_act_dyn = act_dyn;
+    mjcb_act_bias = act_bias;
+  }
+  return s;
+}
+
+static void restore(saved_callbacks s) {
+  if (!s.active) return;
+  mjcb_act_dyn = s.dyn;
+  mjcb_act_bias = s.bias;
+  g_python_plant = s.plant;
+}
+
+/* --- friction ------------------------------------------------------------------------------- */
+/* Coulomb + Stribeck force on a slipping joint (no viscous part: MuJoCo's joint damping). At
+   v = 0 (a joint that just broke away) it opposes the coming motion `direction`. */
+static double slip_force(double v, double direction, double coulomb, double stiction,
+                         double stribeck) {
+  double r = v / stribeck;
+  double magnitude = coulomb + stiction * exp(-r * r);
+  if (v > 0.0) return -magnitude;
+  if (v < 0.0) return magnitude;
+  return -magnitude * direction;
+}
+
+/* Whether a slipping joint sticks after a step from v0 to v1: its velocity changed sign, or fell
+   below the stick velocity while decelerating. */
+static int sticks(double v0, double v1, double stick_velocity) {
+  double a1 = fabs(v1);
+  return v0 * v1 < 0.0 || (a1 < stick_velocity && a1 < fabs(v0));
+}
+
+/* The slipping joints' friction for the step, into p->fric and qfrc_applied. It is evaluated at
+   the step's predicted mid-point velocity v + a h/2 (a: the last step's final acceleration,
+   MuJoCo's qacc_warmstart, part of the saved state), which makes smooth slip phases second order
+   in h; a velocity that would change sign within the step is taken as half the start velocity. */
+static void set_forces(ml_plant* p) {
+  const double* acc = p->d->qacc_warmstart;
+  double half = 0.5 * p->h;
+  for (int j = 0; j < p->n; j++) p->fric[j] = 0.0;
+  for (int i = 0; i < p->nslip; i++) {
+    int j = p->slip[i];
+    if (p->modes[j] != ML_SLIP) continue;
+    double v = p->v0[j];
+    if (v != 0.0) {
+      double mid = v + half * acc[j];
+      v = mid * v > 0.0 ? mid : 0.5 * v;
+    }
+    p->fric[j] = slip_force(v, p->direction[j], p->coulomb[j], p->stiction[j], p->stribeck[j]);
+  }
+  memcpy(p->d->qfrc_applied, p->fric, p->n * sizeof(double));
+}
+
+/* Make the joints not slipping immovable for MuJoCo (armature + hold on each). */
+static void hold(ml_plant* p) {
+  int changed = 0, k = 0;
+  for (int j = 0; j < p->n; j++) {
+    if (p->modes[j] != ML_SLIP) {
+      if (k >= p->nheld || p->held[k] != j) changed = 1;
+      p->held[k++] = j;
+    }
+  }
+  if (!changed && k == p->nheld) return;
+  p->nheld = k;
+  memcpy(p->m->dof_armature, p->armature, p->n * sizeof(double));
+  for (int i = 0; i < k; i++) p->m->dof_armature[p->held[i]] += p->hold;
+}
+
+/* Transitions of the held joints from their holding forces h = -hold qacc: a stop is released
+   when it had to pull (AT_UPPER with h > 0, AT_LOWER with h < 0), the joint becoming STICK if it
+   can stick, else SLIP; STICK breaks away (-> SLIP) when |h| exceeds Fc + Fs, moving against h.
+   Limits are decided first: when any releases, break-aways wait for the next evaluation (their
+   holding forces were computed with that one-sided constraint wrongly in place). Returns 1 if a
+   mode changed. */
+static int release(ml_plant* p, const double* acc) {
+  int changed = 0, released = 0;
+  for (int i = 0; i < p->nheld; i++) {
+    int j = p->held[i];
+    double h = -p->hold * acc[j];
+    if ((p->modes[j] == ML_AT_UPPER && h > 0.0) || (p->modes[j] == ML_AT_LOWER && h < 0.0)) {
+      p->modes[j] = p->can_stick[j] ? ML_STICK : ML_SLIP;
+      changed = 1;
+      released = 1;
+    }
+  }
+  if (released) return changed;
+  for (int i = 0; i < p->nheld; i++) {
+    int j = p->held[i];
+    double h = -p->hold * acc[j];
+    if (p->modes[j] == ML_STICK && fabs(h) > p->breakaway[j]) {
+      p->modes[j] = ML_SLIP;
+      p->direction[j] = h > 0.0 ? -1.0 : 1.0;
+      changed = 1;
+    }
+  }
+  return changed;
+}
+
+/* Whether a held joint's acceleration says it breaks away or pulls on its stop. */
+static int leaves(const ml_plant* p, int j, double a) {
+  switch (p->modes[j]) {
+    case ML_STICK:
+      return a > p->slip_acc[j] || a < -p->slip_acc[j];
+    case ML_AT_UPPER:
+      return a < 0.0;
+    default:
+      return a > 0.0;
+  }
+}
+
+/* The automaton at the step's start, on the dynamics MuJoCo just evaluated there: slipping joints
+   that decelerate to zero within the step (or below the stick velocity by its middle) stick now;
+   held joints whose holding force breaks away or pulls on a stop are released. After any change
+   the forces are set anew and MuJoCo evaluates the new held set, until nothing changes (at most
+   2n + 2 evaluations). */
+static void settle(ml_plant* p) {
+  mjModel* m = p->m;
+  mjData* d = p->d;
+  double h = p->h, half = 0.5 * p->h;
+  for (int iter = 0; iter < 2 * p->n + 2; iter++) {
+    const double* acc = d->qacc;
+    int changed = 0;
+    for (int i = 0; i < p->nsticky; i++) {
+      int j = p->sticky[i];
+      if (p->modes[j] != ML_SLIP) continue;
+      double v = p->v0[j], a = acc[j], sv = p->stick_velocity[j];
+      int hit;
+      if (v > 0.0) {
+        hit = a < 0.0 && (v + a * h <= 0.0 || v + a * half < sv);
+      } else if (v < 0.0) {
+        hit = a > 0.0 && (v + a * h >= 0.0 || v + a * half > -sv);
+      } else {
+        hit = a * p->direction[j] < 0.0;
+      }
+      if (hit) {
+        p->modes[j] = ML_STICK;
+        p->v0[j] = 0.0;
+        changed = 1;
+      }
+    }
+    for (int i = 0; i < p->nheld; i++) {
+      int j = p->held[i];
+      if (leaves(p, j, acc[j])) {
+        changed = release(p, acc) || changed;
+        break;
+      }
+    }
+    if (!changed) break;
+    memcpy(d->qvel, p->v0, p->n * sizeof(double));
+    set_forces(p);
+    hold(p);
+    mj_forward(m, d);
+  }
+}
+
+/* --- the step ------------------------------------------------------------------------------- */
+static void integrate(const mjModel* m, mjData* d, int integrator) {
+  switch (integrator) {
+    case mjINT_RK4:
+      mj_RungeKutta(m, d, 4);
+      break;
+    case mjINT_EULER:
+      mj_Euler(m, d);
+      break;
+    default:
+      mj_implicit(m, d);
+  }
+}
+
+/* The start of one MuJoCo step: forces, holds, the forward pass, the automaton's decisions. */
+static void start(ml_plant* p) {
+  mjModel* m = p->m;
+  mjData* d = p->d;
+  int n = p->n;
+  memcpy(p->q0, d->qpos, n * sizeof(double));
+  memcpy(p->v0, d->qvel, n * sizeof(double));
+  memcpy(p->act0, d->act, m->na * sizeof(double));
+  memcpy(d->ctrl, p->u, n * sizeof(double));
+  for (int i = n; i < m->nu; i++) d->ctrl[i] = 0.0;
+  set_forces(p);
+  hold(p);
+  mj_checkPos(m, d); /* what mj_step does before its forward pass */
+  mj_checkVel(m, d);
+  mj_forward(m, d);
+  if (p->nsticky || p->nlimited) settle(p);
+  mj_checkAcc(m, d);
+}
+
+/* Events at the step's end: the holding forces over the step (-hold dqvel/h, the RK4 average:
+   stiction's into the friction, a stop's into the limit force), held joints put back at rest,
+   slipping joints that reversed or slowed below the stick velocity stuck, joints past a limit put
+   on it. Whether a held joint breaks away or leaves its stop is decided at the next start. */
+static void events(ml_plant* p) {
+  mjData* d = p->d;
+  int n = p->n, moved = p->nheld > 0;
+  double *q1 = p->q1, *v1 = p->v1;
+  memcpy(q1, d->qpos, n * sizeof(double));
+  memcpy(v1, d->qvel, n * sizeof(double));
+  for (int j = 0; j < n; j++) p->limit[j] = 0.0;
+  double scale = -p->hold / p->h;
+  for (int i = 0; i < p->nheld; i++) {
+    int j = p->held[i];
+    double f = scale * v1[j]; /* v1 - 0 = the step's average acceleration times h */
+    q1[j] = p->q0[j];
+    v1[j] = 0.0;
+    if (p->modes[j] == ML_STICK) {
+      p->fric[j] += f;
+    } else {
+      p->limit[j] = f;
+    }
+  }
+  for (int i = 0; i < p->nsticky; i++) {
+    int j = p->sticky[i];
+    if (p->modes[j] == ML_SLIP && sticks(p->v0[j], v1[j], p->stick_velocity[j])) {
+      v1[j] = 0.0;
+      p->modes[j] = ML_STICK;
+      moved = 1;
+    }
+  }
+  for (int i = 0; i < p->nlimited; i++) {
+    int j = p->limited[i];
+    if (q1[j] < p->lower[j]) {
+      q1[j] = p->lower[j];
+      v1[j] = 0.0;
+      p->modes[j] = ML_AT_LOWER;
+      moved = 1;
+    } else if (q1[j] > p->upper[j]) {
+      q1[j] = p->upper[j];
+      v1[j] = 0.0;
+      p->modes[j] = ML_AT_UPPER;
+      moved = 1;
+    }
+  }
+  if (moved) {
+    memcpy(d->qpos, q1, n * sizeof(double));
+    memcpy(d->qvel, v1, n * sizeof(double));
+  }
+}
+
+static int fail(ml_plant* p, int status, int joint, int index) {
+  p->error.status = status;
+  p->error.joint = joint;
+  p->error.index = index;
+  p->error.time = p->d->time;
+  return status;
+}
+
+/* The instability checks after a step: MuJoCo's warnings of bad values, non-finite velocities,
+   actuator states beyond their bounds, the Python check. */
+static int check(ml_plant* p) {
+  mjData* d = p->d;
+  static const int warnings[] = {mjWARN_BADQPOS, mjWARN_BADQVEL, mjWARN_BADQACC};
+  for (int i = 0; i < 3; i++) {
+    if (d->warning[warnings[i]].number) {
+      int info = d->warning[warnings[i]].lastinfo;
+      return fail(p, ML_UNSTABLE_MOTION, info < p->n ? info : -1, warnings[i]);
+    }
+  }
+  for (int j = 0; j < p->n; j++) {
+    if (!isfinite(d->qvel[j]) || !isfinite(d->qpos[j])) {
+      return fail(p, ML_UNSTABLE_MOTION, j, -1);
+    }
+  }
+  for (int i = 0; i < p->nbounds; i++) {
+    double x = d->act[p->bound_adr[i]], bound = p->bound_value[i];
+    if (!(-bound <= x && x <= bound)) {
+      return fail(p, ML_STATE_BOUND, p->bound_joint[i], p->bound_adr[i]);
+    }
+  }
+  if (p->callback_failed) return fail(p, ML_CALLBACK_ERROR, -1, -1);
+  if (p->python_check) {
+    int joint = p->python_check();
+    if (joint != -1) return fail(p, joint < -1 ? ML_CALLBACK_ERROR : ML_STATE_BOUND, joint, -1);
+  }
+  return ML_OK;
+}
+
+/* The end of one MuJoCo step: integrate, the automaton's events, the checks. */
+static int finish(ml_plant* p) {
+  integrate(p->m, p->d, p->integrator);
+  events(p);
+  memcpy(p->rfric, p->fric, p->n * sizeof(double));
+  memcpy(p->rlimit, p->limit, p->n * sizeof(double));
+  return check(p);
+}
+
+static void clip(ml_plant* p, const double* u) {
+  for (int j = 0; j < p->n; j++) {
+    double x = u[j], lim = p->cmd_limit[j];
+    p->u[j] = (-lim <= x && x <= lim) ? x : (x > 0.0 ? lim : -lim);
+  }
+}
+
+static int prepare(ml_plant* p, const double* u) {
+  int n = p->n;
+  clip(p, u);
+  start(p);
+  memcpy(p->rq, p->q0, n * sizeof(double));
+  memcpy(p->rqd, p->v0, n * sizeof(double));
+  memcpy(p->ract, p->act0, p->m->na * sizeof(double));
+  memcpy(p->ru, p->u, n * sizeof(double));
+  for (int j = 0; j < n; j++) p->rmode[j] = (signed char)p->modes[j];
+  return p->callback_failed ? fail(p, ML_CALLBACK_ERROR, -1, -1) : ML_OK;
+}
+
+static int advance(ml_plant* p) {
+  int status = finish(p);
+  for (int i = 1; i < p->substeps && status == ML_OK; i++) {
+    start(p);
+    status = finish(p);
+  }
+  return status;
+}
+
+/* --- the public calls ------------------------------------------------------------------------- */
+void ml_plant_resync(ml_plant* p) {
+  mjData* d = p->d;
+  for (int j = 0; j < p->n; j++) {
+    double q = d->qpos[j], v = d->qvel[j];
+    if (q <= p->lower[j] && v <= 0.0) {
+      p->modes[j] = ML_AT_LOWER;
+    } else if (q >= p->upper[j] && v >= 0.0) {
+      p->modes[j] = ML_AT_UPPER;
+    } else {
+      p->modes[j] = p->can_stick[j] && v == 0.0 ? ML_STICK : ML_SLIP;
+    }
+    if (p->modes[j] == ML_AT_LOWER || p->modes[j] == ML_AT_UPPER) d->qvel[j] = 0.0;
+    p->direction[j] = 1.0;
+  }
+  d->warning[mjWARN_BADQPOS].number = 0;
+  d->warning[mjWARN_BADQVEL].number = 0;
+  d->warning[mjWARN_BADQACC].number = 0;
+  p->callback_failed = 0;
+}
+
+int ml_plant_prepare(ml_plant* p, const double* u) {
+  saved_callbacks s = install(p);
+  int status = prepare(p, u);
+  restore(s);
+  return status;
+}
+
+int ml_plant_advance(ml_plant* p) {
+  saved_callbacks s = install(p);
+  int status = advance(p);
+  restore(s);
+  return status;
+}
+
+static void record_row(const ml_plant* p, ml_run* r, double t) {
+  int n = p->n, na = (int)p->m->na, row = r->rows;
+  r->t[row] = t;
+  memcpy(r->q + (size_t)row * n, p->rq, n * sizeof(double));
+  memcpy(r->qd + (size_t)row * n, p->rqd, n * sizeof(double));
+  memcpy(r->act + (size_t)row * na, p->ract, na * sizeof(double));
+  memcpy(r->ctrl + (size_t)row * n, p->ru, n * sizeof(double));
+  memcpy(r->mode + (size_t)row * n, p->rmode, n);
+}
+
+static void record_forces(const ml_plant* p, ml_run* r, int row) {
+  int n = p->n;
+  memcpy(r->fric + (size_t)row * n, p->rfric, n * sizeof(double));
+  memcpy(r->limit + (size_t)row * n, p->rlimit, n * sizeof(double));
+}
+
+static int run(ml_plant* p, ml_run* r) {
+  int n = p->n, taken = 0;
+  double* u = p->command;
+  for (; r->k <= r->steps; r->k++) {
+    int k = r->k;
+    double t = r->t0 + k * r->dt;
+    if (r->max_steps && taken >= r->max_steps) return ML_PAUSED;
+    if (r->controller && k < r->steps && t >= r->next_call - 1e-9 * r->dt) {
+      if (r->controller(r->controller_context, t, p->m, p->d, r->held) != 0) {
+        p->error.time = t;
+        return fail(p, ML_CONTROLLER_ERROR, -1, -1);
+      }
+      r->next_call = r->period > 0.0 ? r->next_call + r->period : t;
+      if (p->python_actuator) install(p); /* in case the controller compiled a model meanwhile */
+    }
+    for (int j = 0; j < n; j++) {
+      u[j] = r->inputs ? r->held[j] + r->inputs[(size_t)k * n + j] : r->held[j];
+      if (!isfinite(u[j])) {
+        fail(p, ML_BAD_COMMAND, j, -1);
+        p->error.time = t;
+        return ML_BAD_COMMAND;
+      }
+    }
+    int status = prepare(p, u);
+    if (status != ML_OK) return status;
+    int record = k % r->every == 0 || k == r->steps;
+    if (record) record_row(p, r, t);
+    if (k == r->steps) {
+      record_forces(p, r, r->rows++);
+      break;
+    }
+    status = advance(p);
+    taken++;
+    if (status != ML_OK) return status;
+    if (record) record_forces(p, r, r->rows++);
+  }
+  r->k = r->steps + 1;
+  return ML_OK;
+}
+
+int ml_plant_run(ml_plant* p, ml_run* r) {
+  saved_callbacks s = install(p);
+  int status = run(p, r);
+  restore(s);
+  return status;
+}
+
+void ml_plant_record(const ml_plant* p, double* q, double* qd, double* act, double* u,
+                     signed char* mode, double* fric, double* limit) {
+  int n = p->n;
+  if (q) memcpy(q, p->rq, n * sizeof(double));
+  if (qd) memcpy(qd, p->rqd, n * sizeof(double));
+  if (act) memcpy(act, p->ract, p->m->na * sizeof(double));
+  if (u) memcpy(u, p->ru, n * sizeof(double));
+  if (mode) memcpy(mode, p->rmode, n);
+  if (fric) memcpy(fric, p->rfric, n * sizeof(double));
+  if (limit) memcpy(limit, p->rlimit, n * sizeof(double));
+}
+
+void ml_plant_modes(const ml_plant* p, signed char* mode) {
+  for (int j = 0; j < p->n; j++) mode[j] = (signed char)p->modes[j];
+}
+
+ml_error ml_plant_error(const ml_plant* p) { return p->error; }

@@ -1,0 +1,137 @@
+/* maniplab's plant in C: the friction/limit automaton around MuJoCo's step, the run loop and its
+   recording, with no Python per step (the caller may release the GIL for a whole run).
+
+   A plant steps one mjModel/mjData pair. Each step of length dt (m->opt.timestep times the
+   substeps) is MuJoCo's mj_step split in two, as in the paper's template plant:
+
+     prepare (at t): commands clipped into ctrl; the slipping joints' friction into qfrc_applied;
+       the held joints (stuck, or on a limit) made immovable by a large armature; mj_forward;
+       the automaton decides the step's modes on that evaluation (break-away, release from a
+       stop, joints that stop within the step), evaluating again after any change;
+     advance: MuJoCo's integrator from that evaluation; then the step's events (held joints put
+       back, stick and limit events) and the instability checks.
+
+   The physics of the actuators is MuJoCo's (its motor, maniplab's engine plugins); actuators
+   written in Python are reached through MuJoCo's act_dyn/act_bias callbacks, which this library
+   installs only while its plant steps. */
+#ifndef MANIPLAB_PLANT_H_
+#define MANIPLAB_PLANT_H_
+
+#include <mujoco/mujoco.h>
+
+/* Friction/limit modes of a joint (maniplab.friction.FrictionMode). */
+enum { ML_SLIP = 0, ML_STICK = 1, ML_AT_LOWER = 2, ML_AT_UPPER = 3 };
+
+/* Outcome of a call that steps. */
+enum {
+  ML_OK = 0,              /* done */
+  ML_PAUSED = 1,          /* ml_plant_run stopped after max_steps: call it again to go on */
+  ML_UNSTABLE_MOTION = 2, /* a NaN/inf/huge value in qpos, qvel or qacc (err_joint, err_index: the
+                             MuJoCo warning mjWARN_BADQPOS/QVEL/QACC, or -1 for a velocity) */
+  ML_STATE_BOUND = 3,     /* an actuator state beyond its bound (err_joint, err_index: act adr) */
+  ML_BAD_COMMAND = 4,     /* a non-finite command (err_joint) */
+  ML_CONTROLLER_ERROR = 5,/* the controller returned non-zero */
+  ML_CALLBACK_ERROR = 6   /* a Python actuator callback or check failed */
+};
+
+/* A controller the run loop calls at its samples: writes the commands u (n) for the state in
+   (m, d) at time t (d->time == t). Returns 0, or non-zero to stop the run. */
+typedef int (*ml_controller_fn)(void* context, double t, const mjModel* m, const mjData* d,
+                                double* u);
+
+/* A Python actuator's MuJoCo callback (kind 0: act_dyn, 1: act_bias) for actuator `id`: writes
+   the return value to *out (act_dyn of a multi-state actuator writes d->act_dot itself).
+   Returns 0, or non-zero when the Python code raised. */
+typedef int (*ml_actuator_fn)(int kind, int id, double* out);
+
+/* A per-step check in Python of actuator states the plant cannot bound itself: the joint whose
+   state is wrong, or -1. */
+typedef int (*ml_check_fn)(void);
+
+/* What the plant needs besides the model: all arrays have n entries (n = nv = the first n
+   actuators, one per joint), copied by ml_plant_new. */
+typedef struct {
+  int n;
+  int substeps;            /* MuJoCo steps per plant step */
+  double hold_inertia;     /* armature added to a held joint, kg or kg m^2 */
+  const double* lower;     /* joint limits, -inf/+inf for none */
+  const double* upper;
+  const double* command_limit; /* |u| <= limit, inf for none */
+  const int* slip;         /* 1: the joint has hybrid (Coulomb + Stribeck) friction */
+  const double* coulomb;   /* Fc, N or N m */
+  const double* stiction;  /* Fs (above Coulomb) */
+  const double* stribeck;  /* vs, m/s or rad/s */
+  const double* stick_velocity; /* > 0: the joint can stick (hybrid with Fc + Fs > 0); else 0 */
+  int nbounds;             /* actuator states with a bound |act[adr]| <= value (NaN fails) */
+  const int* bound_adr;
+  const double* bound_value;
+  const int* bound_joint;
+} ml_plant_config;
+
+typedef struct ml_plant ml_plant;
+
+/* A run of `steps` steps from the plant's current state: samples k = 0..steps at t0 + k dt, the
+   last one prepared but not advanced. Sample k's command is held + inputs[k] (the controller's
+   held command plus the open-loop inputs); the controller is called before sample k when
+   k < steps and t >= next_call - 1e-9 dt, then next_call += period (period 0: every step).
+   Rows are recorded at samples with k % every == 0 and at k == steps: the state at the step's
+   start (q, qd after the step's stick resets, act), the clipped command, the modes, and the
+   friction and limit forces of the step (the last row: the last step's). */
+typedef struct {
+  int steps;
+  double t0, dt;
+  int k;                   /* in/out: the next sample; 0 to start */
+  int max_steps;           /* pause (ML_PAUSED) after this many steps; 0: never */
+  const double* inputs;    /* (steps + 1, n), or NULL */
+  double* held;            /* (n): the controller's last commands (in/out) */
+  ml_controller_fn controller; /* or NULL */
+  void* controller_context;
+  double period;
+  double next_call;        /* in/out: t0 to start */
+  int every;
+  int rows;                /* in/out: rows written; 0 to start */
+  double* t;               /* (rows,) */
+  double* q;               /* (rows, n) */
+  double* qd;              /* (rows, n) */
+  double* act;             /* (rows, na) */
+  double* ctrl;            /* (rows, n) */
+  signed char* mode;       /* (rows, n) */
+  double* fric;            /* (rows, n) */
+  double* limit;           /* (rows, n) */
+} ml_run;
+
+/* Outcome details after a call returned an error. */
+typedef struct {
+  int status;
+  int joint;               /* -1 when unknown */
+  int index;               /* see the status codes */
+  double time;
+} ml_error;
+
+ml_plant* ml_plant_new(mjModel* m, mjData* d, const ml_plant_config* config);
+void ml_plant_free(ml_plant* p);
+
+/* The Python actuators' callbacks (NULL: none) and per-step check (NULL: none). */
+void ml_plant_set_python(ml_plant* p, ml_actuator_fn actuator, ml_check_fn check);
+
+/* After a reset or any change of the state: modes from the state (on a limit: AT_*, velocity
+   zeroed; at rest with stick/slip friction: STICK; else SLIP), break-away directions cleared. */
+void ml_plant_resync(ml_plant* p);
+
+/* First half of a step at the current time: commands u (n), clipped. Returns ML_OK. */
+int ml_plant_prepare(ml_plant* p, const double* u);
+/* Second half (after ml_plant_prepare): integrate dt in `substeps` MuJoCo steps. */
+int ml_plant_advance(ml_plant* p);
+/* A run (see ml_run); returns ML_OK, ML_PAUSED or an error. */
+int ml_plant_run(ml_plant* p, ml_run* run);
+
+/* The last step's record: the prepared step's start (q, qd, act), clipped commands and modes,
+   and the friction and limit forces of the last advanced step. Any pointer may be NULL. */
+void ml_plant_record(const ml_plant* p, double* q, double* qd, double* act, double* u,
+                     signed char* mode, double* fric, double* limit);
+/* The joints' current modes. */
+void ml_plant_modes(const ml_plant* p, signed char* mode);
+/* The last error's details. */
+ml_error ml_plant_error(const ml_plant* p);
+
+#endif

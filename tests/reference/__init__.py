@@ -1,0 +1,1 @@
+"""Frozen reference implementations the tests check maniplab's compiled code against."""
