@@ -9,8 +9,6 @@ from scipy.integrate import solve_ivp
 
 import maniplab as ml
 from maniplab.friction import FrictionMode
-from maniplab.friction.hybrid import slip_force, sticks
-from maniplab.sim.automaton import transitions
 
 STICK, SLIP = FrictionMode.STICK, FrictionMode.SLIP
 AT_LOWER, AT_UPPER = FrictionMode.AT_LOWER, FrictionMode.AT_UPPER
@@ -28,24 +26,6 @@ def slider(friction: dict, *, mass: float = 10.0, limits: list[float] | None = N
 
 HYBRID = {"model": "hybrid", "coulomb": 20.0, "static": 10.0, "stribeck_velocity": 0.01,
           "viscous": 5.0, "stick_velocity": 1e-3}
-
-
-def test_force_laws() -> None:
-    assert slip_force(0.5, 1.0, 20.0, 10.0, 0.01) == pytest.approx(-20.0)  # Stribeck gone
-    assert slip_force(-0.01, 1.0, 20.0, 10.0, 0.01) == pytest.approx(20.0 + 10.0 / np.e)
-    assert slip_force(0.0, -1.0, 20.0, 10.0, 0.01) == 30.0  # just broke away, moving -x
-    assert sticks(0.1, -0.1, 1e-3) and sticks(2e-3, 5e-4, 1e-3)
-    assert not sticks(0.0, 5e-4, 1e-3)  # accelerating from rest: keeps slipping
-
-
-def test_transitions() -> None:
-    modes = [STICK, STICK, AT_UPPER, AT_LOWER]
-    new, direction = transitions(modes, [29.0, -31.0, -5.0, 5.0], [30.0] * 4, [True] * 4)
-    assert new == [STICK, SLIP, AT_UPPER, AT_LOWER] and direction == [0.0, 1.0, 0.0, 0.0]
-    # a stop that would pull releases first; break-aways wait a step
-    new, direction = transitions(modes, [29.0, -31.0, 5.0, 5.0], [30.0] * 4,
-                                 [True, True, False, True])
-    assert new == [STICK, STICK, SLIP, AT_LOWER] and direction == [0.0] * 4
 
 
 def test_breakaway_under_a_slow_force_ramp() -> None:

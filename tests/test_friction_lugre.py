@@ -12,7 +12,6 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import maniplab as ml
-from maniplab.friction.lugre import LuGreJoint, steady_force
 
 # Table I of the 1995 paper (REFERENCES.md); the static level Fs is coulomb + static
 SIGMA0, SIGMA1, SIGMA2 = 1e5, math.sqrt(1e5), 0.4
@@ -63,20 +62,6 @@ def slip_onsets(t: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Times at which the velocity rises through 1 cm/s."""
     up = np.flatnonzero((v[1:] > 0.01) & (v[:-1] <= 0.01))
     return t[up + 1]
-
-
-def test_closed_forms() -> None:
-    lugre = LuGreJoint.of(0, ml.Friction(model="lugre", **FRICTION))
-    for v in (-0.05, 2e-4, 0.3):
-        z_ss = g(v) * np.sign(v) / SIGMA0
-        assert lugre.rate(z_ss, v) == pytest.approx(0.0, abs=1e-12)
-        assert -lugre.force(z_ss, v) + SIGMA2 * v == pytest.approx(
-            float(steady_force(ml.Friction(model="lugre", **FRICTION), v)), rel=1e-12)
-        # at constant v, z relaxes exponentially to z_ss at the rate a = σ0|v|/g(v)
-        a, dt, z0 = SIGMA0 * abs(v) / g(v), 1e-3, 3e-6
-        assert lugre.advance(z0, v, dt) == pytest.approx(z_ss + (z0 - z_ss) * math.exp(-a * dt),
-                                                         rel=1e-12)
-    assert lugre.advance(2e-6, 0.0, 1e-3) == 2e-6  # no motion, no change
 
 
 def test_stick_slip_matches_radau() -> None:

@@ -1,19 +1,16 @@
 """The plant's parts on their own: the state layout, the actuators, the friction/limit automaton
-and what a step publishes for recording."""
+(in C, through the plant) and what a step publishes for recording."""
 
 from __future__ import annotations
 
-import mujoco
 import numpy as np
 import pytest
 
 import maniplab as ml
 from maniplab.friction import FrictionMode
+from maniplab.mjcf_gen.names import LUGRE_SUFFIX
 from maniplab.sim.actuation import Actuation
-from maniplab.sim.automaton import HOLD_INERTIA, Automaton
-from maniplab.sim.layout import LUGRE_SUFFIX
-
-RK4 = int(mujoco.mjtIntegrator.mjINT_RK4)
+from maniplab.sim.plant import HOLD_INERTIA
 
 
 @pytest.fixture(scope="module")
@@ -55,14 +52,12 @@ def test_layout_without_states_is_empty() -> None:
 
 
 # --- the actuators -----------------------------------------------------------------------------
-def test_actuation_groups_native_actuators_and_integrates_the_others(
-        mixed: ml.ManipulatorSpec) -> None:
-    native = Actuation(mixed, native_route=True, dt=1e-3, integrator=RK4)
-    assert native.integrated == [4]  # the plugin motor; the cylinders and the torque are native
-    assert [len(g.joints) for g in native.groups] == [5]  # MuJoCo's motor, the engine plugin
-    callbacks = Actuation(mixed, native_route=False, dt=1e-3, integrator=RK4)
-    assert callbacks.integrated == list(range(6)) and not callbacks.groups
-    assert native.clip([2.0, -2.0, 0.3, 900.0, -100.0, 0.0]) == [1.0, -1.0, 0.3, 500.0, -48.0, 0.0]
+def test_actuation_finds_the_python_actuators(mixed: ml.ManipulatorSpec) -> None:
+    actuation = Actuation(mixed)
+    actuation.bind(ml.Plant(mixed).model)
+    assert actuation.integrated == [4]  # the plugin motor; cylinders and torque are MuJoCo's
+    assert actuation.clip([2.0, -2.0, 0.3, 900.0, -100.0, 0.0]) == [1.0, -1.0, 0.3, 500.0, -48.0,
+                                                                    0.0]
 
 
 def test_actuation_forces_are_each_models_force(mixed: ml.ManipulatorSpec) -> None:
@@ -78,73 +73,56 @@ def test_actuation_forces_are_each_models_force(mixed: ml.ManipulatorSpec) -> No
     np.testing.assert_allclose(tau[:, 4], 1.0 * 100.0 * 0.5 * act[:, adr[4]])  # η N K i
 
 
-def test_actuation_reports_a_state_out_of_its_range(mixed: ml.ManipulatorSpec) -> None:
-    callbacks = Actuation(mixed, native_route=False, dt=1e-3, integrator=RK4)
-    plant = ml.Plant(mixed, route="callbacks")
-    callbacks.bind(plant.model, plant.data)
-    act = [0.0] * plant.model.na
-    assert callbacks.finish([0.0] * 6, [0.0] * 6, act, [0.0] * 6, act) is None
-    adr = int(plant.model.actuator_actadr[1])
-    act[adr] = 11 * mixed.joints[1].actuator.supply_pressure
-    joint, problem = callbacks.finish([0.0] * 6, [0.0] * 6, act, [0.0] * 6, act)
-    assert joint == 1 and "10 times the supply pressure" in problem
+def test_a_state_out_of_its_range_stops_the_plant(mixed: ml.ManipulatorSpec) -> None:
+    plant = ml.Plant(mixed)
+    plant.step()
+    supply = mixed.joints[1].actuator.supply_pressure
+    plant.set_state(dP={"q2": 11 * supply})
+    with pytest.raises(ml.InstabilityError, match="joint q2.*10 times the supply pressure"):
+        plant.step()
 
 
 # --- the friction/limit automaton --------------------------------------------------------------
-def slider(**friction: float) -> tuple[mujoco.MjModel, mujoco.MjData, ml.Joint]:
-    """A 10 kg block on a horizontal slider, with limits [-0.1, 0.1] and hybrid friction."""
-    joint = ml.Joint(name="x", type="P", axis="x", limits=(-0.1, 0.1),
-                     friction=ml.Friction(model="hybrid", **friction))
-    s = mujoco.MjSpec()
-    s.option.timestep = 1e-3
-    s.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_LIMIT
-    body = s.worldbody.add_body(name="b", mass=10.0, inertia=[1.0, 1.0, 1.0])
-    body.add_joint(name="x", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[1.0, 0.0, 0.0])
-    model = s.compile()
-    return model, mujoco.MjData(model), joint
+def slider(**friction: float) -> ml.Plant:
+    """A 10 kg block on a horizontal slider, with limits [-0.1, 0.1], hybrid friction and a force
+    source."""
+    joint = {"name": "x", "type": "P", "axis": "x", "limits": [-0.1, 0.1], "body": {"mass": 10.0},
+             "actuator": {"type": "torque"}, "friction": {"model": "hybrid", **friction}}
+    return ml.Plant(ml.ManipulatorSpec.from_dict({"name": "slider", "joints": [joint]}))
 
 
 def test_a_stuck_joint_is_held_and_its_holding_force_read_back() -> None:
-    model, data, joint = slider(coulomb=50.0, static=10.0)
-    automaton = Automaton([joint], model, data, 1e-3, {})
-    automaton.resync()  # at rest with stick/slip friction: stuck
-    assert automaton.modes == [FrictionMode.STICK.value]
-    data.qfrc_applied[0] = 0.0
-    automaton.hold()
-    assert model.dof_armature[0] == pytest.approx(HOLD_INERTIA * 10.0)
-    data.xfrc_applied[1, 0] = 40.0  # a push below the break-away force Fc + Fs = 60 N
-    fric = automaton.forces([0.0], [])
-    mujoco.mj_forward(model, data)
-    fric = automaton.settle([0.0], [], fric)
-    assert automaton.modes == [FrictionMode.STICK.value]
-    assert -HOLD_INERTIA * 10.0 * data.qacc[0] == pytest.approx(-40.0, rel=1e-9)  # it holds
-    data.xfrc_applied[1, 0] = 70.0  # beyond the break-away force: it slips, forwards
-    fric = automaton.forces([0.0], [])
-    mujoco.mj_forward(model, data)
-    fric = automaton.settle([0.0], [], fric)
-    assert automaton.modes == [FrictionMode.SLIP.value]
-    assert fric[0] == pytest.approx(-60.0)  # Coulomb + Stribeck at v = 0, against the motion
+    plant = slider(coulomb=50.0, static=10.0)
+    assert plant.modes.tolist() == [FrictionMode.STICK]  # at rest with stick/slip friction
+    assert plant.hold_inertia == pytest.approx(HOLD_INERTIA * 10.0)
+    plant.step([40.0])  # a push below the break-away force Fc + Fs = 60 N
+    assert plant.modes.tolist() == [FrictionMode.STICK] and plant.data.qpos[0] == 0.0
+    assert plant.tau_fric[0] == pytest.approx(-40.0, rel=1e-9)  # it holds, exactly
+    plant.step([70.0])  # beyond the break-away force: it slips, forwards
+    assert plant.modes.tolist() == [FrictionMode.SLIP] and plant.data.qvel[0] > 0.0
+    assert plant.tau_fric[0] == pytest.approx(-60.0)  # Coulomb + Stribeck at v = 0
 
 
-def test_the_step_end_puts_a_joint_past_its_limit_on_it() -> None:
-    model, data, joint = slider()
-    automaton = Automaton([joint], model, data, 1e-3, {})
-    automaton.resync()
-    q1, v1 = [0.1003], [0.3]
-    moved, limit = automaton.finish([0.0998], [0.3], q1, v1, [0.0])
-    assert moved and (q1, v1) == ([0.1], [0.0])
-    assert automaton.modes == [FrictionMode.AT_UPPER.value] and limit is None
+def test_a_joint_past_its_limit_is_put_on_it() -> None:
+    plant = slider()
+    plant.set_state(q=[0.0998], qd=[0.3])
+    plant.step([0.0])
+    assert plant.data.qpos[0] == 0.1 and plant.data.qvel[0] == 0.0
+    assert plant.modes.tolist() == [FrictionMode.AT_UPPER]
+    plant.step([50.0])  # pushed on into the stop: held there by its force
+    assert plant.data.qpos[0] == 0.1 and plant.tau_limit[0] == pytest.approx(-50.0, rel=1e-9)
+    plant.step([-50.0])  # pulled back: released
+    assert plant.modes.tolist() == [FrictionMode.SLIP] and plant.data.qpos[0] < 0.1
 
 
-def test_the_step_end_sticks_a_slipping_joint_that_reverses() -> None:
-    model, data, joint = slider(coulomb=5.0, stick_velocity=1e-3)
-    automaton = Automaton([joint], model, data, 1e-3, {})
-    data.qvel[0] = 0.01
-    automaton.resync()
-    assert automaton.modes == [FrictionMode.SLIP.value]
-    v1 = [-0.002]
-    moved, _ = automaton.finish([0.0], [0.01], [0.0], v1, [0.0])
-    assert moved and v1 == [0.0] and automaton.modes == [FrictionMode.STICK.value]
+def test_a_slipping_joint_that_reverses_sticks() -> None:
+    plant = slider(coulomb=5.0, stick_velocity=1e-3)
+    plant.set_state(qd=[0.01])
+    assert plant.modes.tolist() == [FrictionMode.SLIP]
+    for _ in range(100):  # Coulomb friction alone brings it to rest within 20 ms
+        plant.step([0.0])
+    assert plant.modes.tolist() == [FrictionMode.STICK] and plant.data.qvel[0] == 0.0
+    assert 0.0 < plant.data.qpos[0] <= 0.01**2 / (2 * 5.0 / 10.0) * (1 + 1e-2)
 
 
 # --- what a step publishes ---------------------------------------------------------------------

@@ -51,7 +51,7 @@ def test_torque_joints_have_nan_hydraulics() -> None:
 def test_meta_records_how_the_run_was_made(erector_run, tmp_path) -> None:
     meta = erector_run.meta
     assert meta["inputs"] == {"q1": "step(0.3, t0=0.1)", "q4": "step(0.5, t0=0.1)"}
-    assert meta["dt"] == 1e-3 and meta["integrator"] == "RK4" and meta["route"] == "native"
+    assert meta["dt"] == 1e-3 and meta["integrator"] == "RK4"
     assert meta["initial"] == {"dP": "gravity"} and meta["label"] == "demo"
     assert meta["versions"]["mujoco"] == mujoco.__version__
     json.dumps(meta)
@@ -123,7 +123,7 @@ def test_state_lives_in_mujocos_state_vector() -> None:
 
 
 def test_two_native_plants_interleaved_equal_each_alone() -> None:
-    """The native route uses no MuJoCo callback; plants share nothing."""
+    """Built-in actuators use no MuJoCo callback; plants share nothing."""
     specs = [ml.builtin_spec("erector"),
              ml.builtin_spec("erector").with_overrides({"end_effector.mass": 2000.0})]
     inputs = [0.4, -0.2, 0.1, 0.3, 0.0, 0.1]
@@ -143,22 +143,6 @@ def test_two_native_plants_interleaved_equal_each_alone() -> None:
         b.step(inputs)
     np.testing.assert_array_equal(a.save(), alone[0])
     np.testing.assert_array_equal(b.save(), alone[1])
-
-
-def test_routes_agree_on_the_erector() -> None:
-    """The native split scheme and MuJoCo's RK4 through callbacks solve the same equations.
-
-    Without friction: stick/slip events would amplify the schemes' ~1e-7 differences into
-    different event times.
-    """
-    overrides = {f"joints.q{i}.friction": {"model": "none"} for i in range(1, 7)}
-    inputs = {"q1": ml.signals.step(0.3, t0=0.05), "q3": ml.signals.step(-0.2, t0=0.05),
-              "q5": ml.signals.sine(0.2, 2.0)}
-    native, callbacks = (ml.simulate("erector", inputs=inputs, duration=0.5, route=route,
-                                     initial={"dP": "gravity"}, overrides=overrides)
-                         for route in ("native", "callbacks"))
-    assert np.max(np.abs(native.q - callbacks.q)) < 1e-4 * np.max(np.abs(callbacks.q))
-    assert np.max(np.abs(native["dP"] - callbacks["dP"])) < 1e-3 * np.max(np.abs(callbacks["dP"]))
 
 
 def test_simulate_continues_a_plant() -> None:
@@ -189,7 +173,6 @@ def test_initial_state() -> None:
     ({"initial": {"q": [1.0]}}, ["expected shape (2,)"]),
     ({"duration": -1.0}, ["duration must be a positive"]),
     ({"sample_dt": 0.0}, ["sample_dt"]),
-    ({"route": "fast"}, ["unknown route 'fast'"]),
     ({"integrator": "RK45"}, ["unknown integrator 'RK45'"]),
 ])
 def test_bad_arguments_are_input_errors(kwargs, words) -> None:

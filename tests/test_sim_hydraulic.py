@@ -1,6 +1,5 @@
-"""The hydraulic cylinder of eq. (4) in the plant, against closed forms and an independent
-integration of the same ODEs (scipy's Radau), on both routes (native split scheme, MuJoCo RK4
-through callbacks)."""
+"""The hydraulic cylinder of eq. (4) in the plant (its engine plugin, integrated by MuJoCo's RK4),
+against closed forms and an independent integration of the same ODEs (scipy's Radau)."""
 
 from __future__ import annotations
 
@@ -11,8 +10,6 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import maniplab as ml
-
-ROUTES = ["native", "callbacks"]
 
 
 def cylinder_joint(**hydraulic: float) -> dict:
@@ -31,13 +28,12 @@ def held_piston(**hydraulic: float) -> ml.ManipulatorSpec:
     return ml.ManipulatorSpec.from_dict({"name": "held", "joints": [joint]})
 
 
-@pytest.mark.parametrize("route", ROUTES)
-def test_pressure_of_a_held_piston_under_constant_flow(route) -> None:
+def test_pressure_of_a_held_piston_under_constant_flow() -> None:
     """ΔP(t) = (Q/Le)(1 - exp(-Le E t / V)) (REFERENCES.md), with Q constant: the valve starts at
     its steady flow i_v C and the supply pressure is so high that sqrt(1 - |ΔP|/Ps) = 1."""
     iv, C, Le, E, V = 0.5, 1e-4, 1e-11, 1.4e9, 1e-3
     Q = iv * C
-    run = ml.simulate(held_piston(), inputs={"piston": iv}, duration=0.3, route=route,
+    run = ml.simulate(held_piston(), inputs={"piston": iv}, duration=0.3,
                       initial={"Q": [Q]})
     exact = Q / Le * (1.0 - np.exp(-Le * E * run.t / V))
     assert np.all(run.q == 0.0) and np.all(run["mode"] == ml.friction.FrictionMode.STICK)
@@ -48,11 +44,10 @@ def test_pressure_of_a_held_piston_under_constant_flow(route) -> None:
     np.testing.assert_allclose(run["tau_fric"][:-1, 0], -mean_force, rtol=1e-2)
 
 
-@pytest.mark.parametrize("route", ROUTES)
-def test_valve_lag(route) -> None:
+def test_valve_lag() -> None:
     """Q(t) = i_v C (1 - exp(-t/τ)) while |ΔP| << Ps."""
     iv, C, tau = 0.8, 1e-4, 0.01
-    run = ml.simulate(held_piston(), inputs={"piston": iv}, duration=0.05, route=route)
+    run = ml.simulate(held_piston(), inputs={"piston": iv}, duration=0.05)
     np.testing.assert_allclose(run["Q"][:, 0], iv * C * (1.0 - np.exp(-run.t / tau)),
                                rtol=1e-3, atol=1e-12)
     np.testing.assert_array_equal(run["iv"][:, 0], iv)
@@ -101,10 +96,10 @@ def lift_reference(t: np.ndarray) -> np.ndarray:
     return np.where(t <= T_STEP, before(np.minimum(t, T_STEP)), after(np.maximum(t, T_STEP)))
 
 
-@pytest.mark.parametrize(("route", "dt"), [("native", 1e-3), ("callbacks", 1e-3)])
-def test_lift_matches_radau(route, dt) -> None:
+@pytest.mark.parametrize("dt", [1e-3, 2e-4])
+def test_lift_matches_radau(dt) -> None:
     run = ml.simulate(LIFT, inputs={"lift": ml.signals.step(IV, t0=T_STEP)}, duration=T_END,
-                      dt=dt, route=route, initial={"dP": "gravity"}, sample_dt=dt)
+                      dt=dt, initial={"dP": "gravity"}, sample_dt=dt)
     x, _, p, q = lift_reference(run.t)
     assert x[-1] > 0.05  # it lifts
     assert np.max(np.abs(run.q[:, 0] - x)) < 1e-3 * np.max(np.abs(x))

@@ -27,9 +27,9 @@ def lift(law: str = "orifice", **extra: float) -> ml.ManipulatorSpec:
          "actuator": actuator}]})
 
 
-def lowered(law: str, route: str = "native") -> ml.Run:
+def lowered(law: str) -> ml.Run:
     return ml.simulate(lift(law), inputs={"lift": ml.signals.step(IV, t0=0.1)}, duration=2.0,
-                       initial={"dP": "gravity"}, route=route)
+                       initial={"dP": "gravity"})
 
 
 def swing(run: ml.Run, t0: float, t1: float) -> float:
@@ -37,9 +37,8 @@ def swing(run: ml.Run, t0: float, t1: float) -> float:
     return float(np.ptp(run["dP"][window, 0]))
 
 
-@pytest.mark.parametrize("route", ["native", "callbacks"])
-def test_orifice_law_lowers_at_its_closed_form_speed(route: str) -> None:
-    run = lowered("orifice", route)
+def test_orifice_law_lowers_at_its_closed_form_speed() -> None:
+    run = lowered("orifice")
     hold = M * G / A  # the pressure that carries the load
     # steady lowering: A v = Q* - Le ΔP with Q* = i C sqrt(1 + ΔP/Ps) (the load adds to the drop)
     speed = (IV * C * math.sqrt(1.0 + hold / PS) - LE * hold) / A
@@ -70,14 +69,13 @@ def test_the_valve_takes_energy_out_of_a_lowered_load() -> None:
         x[-1] - x[moving][0])
 
 
-@pytest.mark.parametrize("route", ["native", "callbacks"])
-def test_relief_caps_the_pressure_of_a_cylinder_driven_into_its_stop(route: str) -> None:
+def test_relief_caps_the_pressure_of_a_cylinder_driven_into_its_stop() -> None:
     relief = 15e6
     run = ml.simulate(lift("orifice", relief_pressure=relief), inputs={"lift": 1.0},
-                      duration=2.0, initial={"dP": "gravity"}, route=route)
+                      duration=2.0, initial={"dP": "gravity"})
     assert run["mode"][-1, 0] == ml.friction.FrictionMode.AT_UPPER  # on its stop
     assert np.max(run["dP"]) <= 1.01 * relief  # never above the relief's override
     assert run["dP"][-1, 0] == pytest.approx(relief, rel=0.01)  # blowing off at its setting
     without = ml.simulate(lift("orifice"), inputs={"lift": 1.0}, duration=2.0,
-                          initial={"dP": "gravity"}, route=route)
+                          initial={"dP": "gravity"})
     assert without["dP"][-1, 0] == pytest.approx(PS, rel=0.02)  # the valve alone: up to Ps

@@ -8,6 +8,7 @@
 
    Q* = i_v C sqrt(max(0, 1 - s dP / Ps)), s = sign(i_v) for the orifice law (the default),
    s = sign(dP) for the paper's law; Q_r = K_r (|dP| - p_r) sign(dP) above the relief setting p_r.
+   The law and the rates are valve.h's, which every other part of maniplab evaluates too.
 
    MuJoCo's integrator advances dP and Q with the arm (actuator_act_dot), so mj_step, rollout and
    the viewers all run it. The relief valve is stiff (its pressure decay rate K_r E/V reaches 1e4
@@ -22,21 +23,14 @@
 #include <string.h>
 
 #include "plugins.h"
+#include "valve.h"
 
 #define PLUGIN "maniplab.hydraulic"
 
 typedef struct {
   int actuator;
-  double area;          /* A, m^2 or m^3/rad */
-  double stiffness;     /* E/V, Pa/m^3 */
-  double leakage;       /* Le, m^3/(s Pa) */
-  double valve_gain;    /* C, m^3/(s A) */
-  double inv_supply;    /* 1/Ps, 1/Pa */
-  double inv_tau;       /* 1/tau, 1/s */
-  double relief;        /* p_r, Pa; 0: no relief valve */
-  double relief_gain;   /* K_r, m^3/(s Pa) */
+  ml_cylinder law;      /* eq. (4)'s parameters (valve.h) */
   double relief_cap;    /* p_r + C i_max / K_r, Pa: the open relief's pressure at full flow */
-  int orifice;          /* 1: orifice law, 0: the paper's */
 } Cylinder;
 
 /* plugin_state of an instance: the step's start time and pressure, and whether they are set */
@@ -46,16 +40,9 @@ static const char* kAttributes[] = {
     "area", "bulk_modulus", "volume", "leakage", "valve_gain", "supply_pressure", "valve_tau",
     "valve_law", "relief_pressure", "relief_gain"};
 
-/* The valve's steady flow Q* at current u and load pressure dP, m^3/s. */
-static double valve_flow(const Cylinder* c, double u, double dP) {
-  double drop = c->orifice ? (u >= 0.0 ? dP : -dP) : fabs(dP);
-  double r = 1.0 - drop * c->inv_supply;
-  return r > 0.0 ? u * c->valve_gain * sqrt(r) : 0.0;
-}
-
 /* The open relief from pressure p on side s (+-1) over a time t at the mean rate r (Pa/s):
    dp/dt = r - lambda (p - s p_r), solved exactly. */
-static double open_relief(const Cylinder* c, double p, double s, double r, double t) {
+static double open_relief(const ml_cylinder* c, double p, double s, double r, double t) {
   double lambda = c->stiffness * c->relief_gain;
   double x = lambda * t;
   double grow = x > 1e-8 ? -expm1(-x) : x * (1.0 - 0.5 * x);  /* 1 - e^-x */
@@ -65,7 +52,7 @@ static double open_relief(const Cylinder* c, double p, double s, double r, doubl
 /* The pressure after a step of length h that MuJoCo took from p0 to p1 without the relief, with
    the relief: the step's mean rate r = (p1 - p0)/h held, the valve opening and closing at p_r
    exactly (piecewise: closed, dp/dt = r; open, as open_relief). */
-static double relieved(const Cylinder* c, double p0, double p1, double h) {
+static double relieved(const ml_cylinder* c, double p0, double p1, double h) {
   double r = (p1 - p0) / h;
   double pr = c->relief;
   double lambda = c->stiffness * c->relief_gain;
@@ -91,6 +78,7 @@ static int required(const mjModel* m, int instance, const char* key, double* val
 static int init(const mjModel* m, mjData* d, int instance) {
   Cylinder c;
   memset(&c, 0, sizeof(c));
+  ml_cylinder* eq = &c.law;
   double E, V, Ps, tau;
   c.actuator = ml_instance_actuator(m, instance, PLUGIN);
   if (c.actuator < 0) return -1;
@@ -98,29 +86,30 @@ static int init(const mjModel* m, mjData* d, int instance) {
     mju_warning(PLUGIN ": actuator %d needs actdim=\"2\" (dP, Q)", c.actuator);
     return -1;
   }
-  if (required(m, instance, "area", &c.area, 1) || required(m, instance, "bulk_modulus", &E, 1)
-      || required(m, instance, "volume", &V, 1) || required(m, instance, "leakage", &c.leakage, 0)
-      || required(m, instance, "valve_gain", &c.valve_gain, 1)
+  if (required(m, instance, "area", &eq->area, 1) || required(m, instance, "bulk_modulus", &E, 1)
+      || required(m, instance, "volume", &V, 1)
+      || required(m, instance, "leakage", &eq->leakage, 0)
+      || required(m, instance, "valve_gain", &eq->valve_gain, 1)
       || required(m, instance, "supply_pressure", &Ps, 1)
       || required(m, instance, "valve_tau", &tau, 1)) {
     return -1;
   }
-  c.stiffness = E / V;
-  c.inv_supply = 1.0 / Ps;
-  c.inv_tau = 1.0 / tau;
+  eq->stiffness = E / V;
+  eq->inv_supply = 1.0 / Ps;
+  eq->inv_tau = 1.0 / tau;
   const char* law = mj_getPluginConfig(m, instance, "valve_law");
   if (law == NULL || law[0] == '\0' || strcmp(law, "orifice") == 0) {
-    c.orifice = 1;
+    eq->orifice = 1;
   } else if (strcmp(law, "paper") == 0) {
-    c.orifice = 0;
+    eq->orifice = 0;
   } else {
     mju_warning(PLUGIN ": config 'valve_law' = '%s'; expected 'orifice' or 'paper'", law);
     return -1;
   }
-  int has_relief = ml_config_number(m, instance, "relief_pressure", &c.relief);
+  int has_relief = ml_config_number(m, instance, "relief_pressure", &eq->relief);
   if (has_relief < 0) return -1;
   if (has_relief == 0) {
-    if (!(c.relief > 0.0) || required(m, instance, "relief_gain", &c.relief_gain, 1)) {
+    if (!(eq->relief > 0.0) || required(m, instance, "relief_gain", &eq->relief_gain, 1)) {
       mju_warning(PLUGIN ": a relief needs a positive relief_pressure and relief_gain");
       return -1;
     }
@@ -128,7 +117,7 @@ static int init(const mjModel* m, mjData* d, int instance) {
                        ? fmax(fabs(m->actuator_ctrlrange[2 * c.actuator]),
                               fabs(m->actuator_ctrlrange[2 * c.actuator + 1]))
                        : 1.0;
-    c.relief_cap = c.relief + c.valve_gain * limit / c.relief_gain;
+    c.relief_cap = eq->relief + eq->valve_gain * limit / eq->relief_gain;
   }
   return ml_keep(d, instance, &c, sizeof(c));
 }
@@ -147,10 +136,9 @@ static void act_dot(const mjModel* m, mjData* d, int instance) {
   double dP = d->act[adr], Q = d->act[adr + 1];
   double v = d->actuator_velocity[c->actuator];
   double u = ml_control(m, d, c->actuator);
-  d->act_dot[adr] = c->stiffness * (Q - c->area * v - c->leakage * dP);
-  d->act_dot[adr + 1] = (valve_flow(c, u, dP) - Q) * c->inv_tau;
+  ml_cylinder_rates_law(&c->law, dP, Q, u, v, 0, d->act_dot + adr);  /* the relief: advance */
   mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
-  if (c->relief > 0.0 && (!state[HAVE_START] || d->time == state[START_TIME])) {
+  if (c->law.relief > 0.0 && (!state[HAVE_START] || d->time == state[START_TIME])) {
     state[START_TIME] = d->time;
     state[START_PRESSURE] = dP;
     state[HAVE_START] = 1.0;
@@ -159,7 +147,7 @@ static void act_dot(const mjModel* m, mjData* d, int instance) {
 
 static void advance(const mjModel* m, mjData* d, int instance) {
   const Cylinder* c = (const Cylinder*)d->plugin_data[instance];
-  if (c->relief <= 0.0) return;
+  if (c->law.relief <= 0.0) return;
   mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
   double h = m->opt.timestep;
   int adr = m->actuator_actadr[c->actuator];
@@ -167,7 +155,7 @@ static void advance(const mjModel* m, mjData* d, int instance) {
   /* without a recorded start (the state was set at another time), hold p1 as the start */
   double since = d->time - state[START_TIME];  /* MuJoCo has advanced the time by h */
   int known = state[HAVE_START] && fabs(since - h) <= 1e-9 * (h + fabs(d->time));
-  d->act[adr] = relieved(c, known ? state[START_PRESSURE] : p1, p1, h);
+  d->act[adr] = relieved(&c->law, known ? state[START_PRESSURE] : p1, p1, h);
   state[HAVE_START] = 0.0;
 }
 
@@ -176,8 +164,8 @@ static void compute(const mjModel* m, mjData* d, int instance, int capability_bi
   double dP = d->act[m->actuator_actadr[c->actuator]];
   /* within a step the pressure runs on without the relief (advance brings it back): the force
      sees at most what the open relief allows, p_r plus the full valve flow's override */
-  if (c->relief > 0.0 && fabs(dP) > c->relief_cap) dP = copysign(c->relief_cap, dP);
-  d->actuator_force[c->actuator] = c->area * dP;
+  if (c->law.relief > 0.0 && fabs(dP) > c->relief_cap) dP = copysign(c->relief_cap, dP);
+  d->actuator_force[c->actuator] = c->law.area * dP;
 }
 
 void ml_register_hydraulic(void) {

@@ -15,7 +15,6 @@ from maniplab.actuators.base import (
 )
 from maniplab.actuators.drive import ForceDrive, StaticDrive
 from maniplab.actuators.hydraulic import HydraulicActuator, HydraulicCylinder
-from maniplab.actuators.native import NativeGroup
 from maniplab.actuators.registry import (
     ENTRY_POINT_GROUP,
     PluginLookupError,
@@ -34,7 +33,6 @@ __all__ = [
     "HydraulicActuator",
     "HydraulicCylinder",
     "Jacobians",
-    "NativeGroup",
     "PluginLookupError",
     "StaticDrive",
     "Steady",

@@ -25,9 +25,6 @@ derivatives, force         the plant (MuJoCo integrates the states through its c
 mujoco_plugin              a MuJoCo engine plugin (C) that models the actuator inside MuJoCo:
                            the plant and every MuJoCo tool integrate it with no Python per
                            step (the hydraulic cylinder's ``maniplab.hydraulic``)
-native                     what the plant's native route does instead of MuJoCo's callbacks
-                           (a :class:`NativeGroup`; the base one: nothing, MuJoCo's actuator
-                           or engine plugin is the model)
 configure_mjcf             how the exported MJCF declares the actuator
 steady, holding            operating points (the state and command that hold a force), the
                            plant's start "held against gravity", the default drive
@@ -159,9 +156,6 @@ class ActuatorPlugin(abc.ABC):
         command: name of the command, e.g. "iv" (valve current) or "voltage"; it becomes a
             signal of the Run too (the commands of the joints driven this way).
         command_unit: unit of the command.
-        native: a :class:`~maniplab.actuators.native.NativeGroup` class that advances all
-            actuators of this class on the plant's native route without MuJoCo's callbacks, or
-            None.
         spring_name: what :meth:`stiffness` is, in messages ("oil spring").
 
     Args:
@@ -174,7 +168,6 @@ class ActuatorPlugin(abc.ABC):
     state_units: ClassVar[tuple[str, ...]] = ()
     command: ClassVar[str] = "u"
     command_unit: ClassVar[str] = ""
-    native: ClassVar[type[Any] | None] = None
     spring_name: ClassVar[str] = "actuator spring"
 
     def __init__(self, params: Any, joint: Joint) -> None:

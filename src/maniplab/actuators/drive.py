@@ -8,11 +8,15 @@ is the paper's inner pressure loop with the valve inversion G2
 :meth:`~maniplab.actuators.base.ActuatorPlugin.steady` is driven by :class:`StaticDrive`, which
 inverts its steady state at each sample (a torque source passes the force through; a DC motor
 gets the voltage of the steady current at the measured speed).
+
+The built-in drives also say how the compiled cascade runs them (:meth:`ForceDrive.compiled`):
+then the controller's whole sample is C, and the plant's run loop calls it with no Python.
 """
 
 from __future__ import annotations
 
 import abc
+import dataclasses
 import math
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any, ClassVar
@@ -21,6 +25,22 @@ import numpy as np
 
 if TYPE_CHECKING:
     from maniplab.actuators.base import ActuatorPlugin
+
+
+@dataclasses.dataclass(frozen=True)
+class CompiledDrive:
+    """A drive's law as the compiled cascade (``maniplab_native/cascade.h``) runs it itself.
+
+    Attributes:
+        kind: "valve" (the pressure loop and G2 of
+            :class:`~maniplab.actuators.hydraulic.drive.PressureDrive`) or "force" (the command is
+            the force, clipped: :class:`ForceSourceDrive`).
+        parameters: the law's parameters by name (those of ``ml_cascade_config``): arrays (k,)
+            over the drive's joints, or scalars.
+    """
+
+    kind: str
+    parameters: Mapping[str, Any] = dataclasses.field(default_factory=dict)
 
 
 class ForceDrive(abc.ABC):
@@ -79,6 +99,12 @@ class ForceDrive(abc.ABC):
         """u clipped to ±limit."""
         return np.minimum(np.maximum(u, -self.limit), self.limit)
 
+    def compiled(self) -> CompiledDrive | None:
+        """The drive's law for the compiled cascade, or None (the default): the cascade then
+        computes the desired forces (or, in its PID-only mode, the joint speeds) in C and calls
+        :meth:`command` (and :meth:`speed_command`) from Python for these joints."""
+        return None
+
 
 class StaticDrive(ForceDrive):
     """Each sample, the command of :meth:`~ActuatorPlugin.steady` for the desired force at the
@@ -89,3 +115,16 @@ class StaticDrive(ForceDrive):
         u = np.array([a.steady(float(f), float(x), float(v)).u
                       for a, f, x, v in zip(self.actuators, force, q, qd)])
         return self.clip(u)
+
+
+class ForceSourceDrive(StaticDrive):
+    """The drive of an ideal force source (whose steady state is the force itself): the command
+    is the desired force, clipped. The compiled cascade runs it in C."""
+
+    def command(self, force: np.ndarray, q: np.ndarray, qd: np.ndarray, qd_ref: np.ndarray,
+                states: Mapping[str, np.ndarray]) -> np.ndarray:
+        return self.clip(np.asarray(force, dtype=float))
+
+    def compiled(self) -> CompiledDrive:
+        """``force``: clip(τ_d) in C."""
+        return CompiledDrive("force")

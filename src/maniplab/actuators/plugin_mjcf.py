@@ -47,19 +47,6 @@ def set_plugin(s: mujoco.MjSpec, act: mujoco.MjsActuator, plugin: EnginePlugin) 
     act.plugin = instance  # the plugin computes the force: MuJoCo's gain and bias do not apply
 
 
-def clear_plugin(s: mujoco.MjSpec, act: mujoco.MjsActuator) -> None:
-    """Make ``act`` an ordinary actuator again and drop its plugin instance (the plant's callback
-    route)."""
-    if not act.plugin.active:
-        return
-    for instance in s.plugins:
-        if instance.name == act.plugin.name:
-            s.delete(instance)
-            break
-    act.plugin.active = False
-    act.plugin.plugin_name = ""
-
-
 def plugins_of(s: mujoco.MjSpec) -> list[str]:
     """The engine plugins the actuators of ``s`` use, in order of first use."""
     names: list[str] = []

@@ -2,14 +2,18 @@
 
 from __future__ import annotations
 
-from typing import ClassVar, Literal
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, ClassVar, Literal
 
 import mujoco
 import numpy as np
 
 from maniplab.actuators.base import ActuatorPlugin, Steady, set_command_range
-from maniplab.actuators.native import NativeGroup
+from maniplab.actuators.drive import ForceDrive, ForceSourceDrive
 from maniplab.schema import Positive, validated
+
+if TYPE_CHECKING:
+    from maniplab.spec import ControlSpec
 
 
 @validated
@@ -31,13 +35,12 @@ class TorqueSource(ActuatorPlugin):
     """Ideal source: force = u (N on a prismatic joint, N·m on a rotational one), |u| <= limit.
 
     Stateless. In the MuJoCo model it is MuJoCo's own motor (gain 1, ``ctrlrange`` ±limit), which
-    holds the force constant over each step; so on the plant's native route MuJoCo alone drives it.
+    holds the force constant over each step, so MuJoCo alone drives it.
     """
 
     Params: ClassVar[type] = TorqueActuator
     command: ClassVar[str] = "tau"
     command_unit: ClassVar[str] = "N | N·m"
-    native: ClassVar[type[NativeGroup]] = NativeGroup
     params: TorqueActuator
 
     @property
@@ -56,6 +59,13 @@ class TorqueSource(ActuatorPlugin):
     def steady(self, force: float, q: float, v: float) -> Steady:
         """The force itself is the command."""
         return Steady(np.zeros(0), force)
+
+    @classmethod
+    def drive(cls, actuators: Sequence[ActuatorPlugin], joints: Sequence[int], *, dt: float,
+              settings: ControlSpec) -> ForceDrive:
+        """The force itself, clipped (:class:`~maniplab.actuators.drive.ForceSourceDrive`, which
+        the compiled cascade runs in C)."""
+        return ForceSourceDrive(actuators, joints, dt=dt, settings=settings)
 
     def configure_mjcf(self, act: mujoco.MjsActuator) -> None:
         """MuJoCo's motor: gain 1, no bias, ``ctrlrange`` ±limit."""

@@ -42,8 +42,8 @@ import mujoco
 import numpy as np
 
 from maniplab.actuators.plugin_mjcf import EnginePlugin, activate_plugins, set_plugin
-from maniplab.friction import FrictionModel
 from maniplab.builtin import resolve_spec
+from maniplab.friction import FrictionModel
 from maniplab.mjcb import suspended
 from maniplab.mjcf_gen import checks, names, visuals
 from maniplab.mjcf_gen.timestep import DEFAULT, StepLimit, default_step, step_limit
@@ -82,12 +82,11 @@ def build_mjspec(spec: SpecLike) -> mujoco.MjSpec:
 
 
 @functools.lru_cache(maxsize=64)
-def arm_step_limit(spec: ManipulatorSpec, native: bool = True) -> StepLimit:
-    """The largest step ``spec``'s actuators allow, in their native forms or integrated by
-    MuJoCo (see :mod:`~maniplab.mjcf_gen.timestep`)."""
+def arm_step_limit(spec: ManipulatorSpec) -> StepLimit:
+    """The largest step ``spec``'s actuators allow (see :mod:`~maniplab.mjcf_gen.timestep`)."""
     with suspended():
         model = checks.compile_checked(_arm(spec), spec)
-    return step_limit(spec, model, native=native)
+    return step_limit(spec, model)
 
 
 def _arm(spec: ManipulatorSpec) -> mujoco.MjSpec:

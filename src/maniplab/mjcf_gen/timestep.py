@@ -61,14 +61,16 @@ class StepLimit:
                 f"{'rad/s' if 'mode' in self.what else '1/s'} needs dt <= {self.dt:.3g} s")
 
 
-def step_limit(spec: ManipulatorSpec, model: mujoco.MjModel, *,
-               native: bool = True) -> StepLimit:
-    """The largest step ``spec``'s actuators allow on its compiled MuJoCo ``model``, with their
-    native forms (``native``: the plant's default route) or integrated by MuJoCo."""
+def step_limit(spec: ManipulatorSpec, model: mujoco.MjModel) -> StepLimit:
+    """The largest step ``spec``'s actuators allow on its compiled MuJoCo ``model``.
+
+    An actuator with an engine plugin (:meth:`~maniplab.actuators.ActuatorPlugin.mujoco_plugin`)
+    is asked for the rates its plugin does not take exactly (``rates(native=True)``); one that
+    MuJoCo integrates through the callbacks for all of them."""
     actuators = [model_of(j) for j in spec.joints]
     best = StepLimit(math.inf)
     for j, actuator in enumerate(actuators):
-        exact = native and type(actuator).native is not None
+        exact = actuator.mujoco_plugin() is not None
         for what, rate in actuator.rates(exact).items():
             if rate > 0.0 and RATE / rate < best.dt:
                 best = StepLimit(RATE / rate, spec.joints[j].name, what, rate)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import ctypes
 from collections.abc import Iterable, Sequence
 from typing import Any
 
@@ -13,6 +14,8 @@ from maniplab.model.engine import get_engine
 from maniplab.model.errors import ModelArgumentError
 from maniplab.model.parameters import arm_terms
 from maniplab.spec import ManipulatorSpec
+
+_LIBRARIES: dict[str, ctypes.CDLL] = {}  # a compiled model's file -> its ctypes handle
 
 
 class AnalyticModel:
@@ -173,6 +176,28 @@ class AnalyticModel:
         (rad/s).
         """
         return self._k.jacobian(self.params, q)
+
+    # --- the compiled kernels for C callers --------------------------------------------------
+    def kernel_address(self, name: str) -> int:
+        """The address of the compiled kernel ``ml_<name>`` (name: M, C, G, bias, mass_bias,
+        inverse_dynamics, fk, jacobian), for C code that calls the model itself (the compiled
+        cascade): ``void ml_<name>(const double *p, const double *q, const double *qd,
+        const double *qdd, double *out)`` with ``p`` = :attr:`params` (see
+        :mod:`~maniplab.model.codegen`).
+
+        Raises:
+            ModelArgumentError: the model runs on the Python backend (nothing compiled).
+        """
+        if self.backend != "c":
+            raise ModelArgumentError(
+                f"the {self.spec.name} model runs on the {self.backend!r} backend: it has no "
+                "compiled kernels (it needs a C compiler)")
+        lib = _LIBRARIES.get(self._k.__file__)
+        if lib is None:
+            lib = _LIBRARIES.setdefault(self._k.__file__, ctypes.CDLL(self._k.__file__))
+        address = ctypes.cast(getattr(lib, f"ml_{name}"), ctypes.c_void_p).value
+        assert address is not None, name
+        return address
 
     # --- the symbolic side -------------------------------------------------------------------
     def symbolic(self, symbolic: Sequence[str] = ()) -> Any:

@@ -44,7 +44,6 @@ from maniplab.builtin import resolve_spec
 from maniplab.friction import FrictionModel
 from maniplab.mjcb import exclusive, suspended
 from maniplab.mjcf_gen.builder import arm_step_limit
-from maniplab.mjcf_gen.names import LUGRE_SUFFIX
 from maniplab.mjcf_gen.timestep import default_step, round_down
 from maniplab.sim import native
 from maniplab.sim.actuation import Actuation
@@ -447,7 +446,7 @@ class _CPlant:
         hooks = plant._hooks
         if hooks is not None:
             self.lib.ml_plant_set_python(self.ptr, hooks.actuator, hooks.check)
-        self._u = (ctypes.c_double * plant.n)()
+        self._u = np.zeros(plant.n)
         self._modes = np.zeros(plant.n, dtype=np.int8)
 
     def __del__(self) -> None:
@@ -461,7 +460,7 @@ class _CPlant:
     def prepare(self, u: list[float]) -> int:
         self._u[:] = u
         self._t = float(self.data.time)
-        return int(self.lib.ml_plant_prepare(self.ptr, self._u))
+        return int(self.lib.ml_plant_prepare(self.ptr, native.pointer(self._u)))
 
     def advance(self) -> int:
         return int(self.lib.ml_plant_advance(self.ptr))

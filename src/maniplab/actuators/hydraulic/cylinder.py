@@ -12,6 +12,7 @@ relief valve); the joint force is A ΔP (N, or N·m with A in m³/rad).
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, ClassVar
@@ -23,7 +24,6 @@ from maniplab.actuators.base import ActuatorPlugin, Bound, Jacobians, Steady, se
 from maniplab.actuators.hydraulic import valve
 from maniplab.actuators.hydraulic.drive import PressureDrive
 from maniplab.actuators.hydraulic.params import HydraulicActuator
-from maniplab.actuators.native import NativeGroup
 from maniplab.actuators.plugin_mjcf import EnginePlugin
 
 if TYPE_CHECKING:
@@ -65,7 +65,6 @@ class HydraulicCylinder(ActuatorPlugin):
     state_units: ClassVar[tuple[str, ...]] = ("Pa", "m³/s")
     command: ClassVar[str] = "iv"
     command_unit: ClassVar[str] = "A"
-    native: ClassVar[type[NativeGroup]] = NativeGroup  # the MuJoCo plugin is the whole model
     spring_name: ClassVar[str] = "oil spring"
     params: HydraulicActuator
 
@@ -74,21 +73,14 @@ class HydraulicCylinder(ActuatorPlugin):
         """``current_limit``, A."""
         return self.params.current_limit
 
+    @functools.cached_property
+    def law(self) -> valve.CylinderLaw:
+        """The cylinder's parameters as the C law (``maniplab_native/valve.h``) takes them."""
+        return valve.cylinder_law(self.params)
 
     def derivatives(self, x: np.ndarray, u: float, q: float, v: float) -> np.ndarray:
-        """(dΔP/dt, dQ/dt), Pa/s and m³/s²."""
-        p = self.params
-        dP, Q = float(x[0]), float(x[1])
-        target = valve.flow(u, dP, p.valve_gain, 1.0 / p.supply_pressure, p.orifice)
-        relief = self._relief(dP)
-        return np.array([p.bulk_modulus / p.volume * (Q - p.leakage * dP - relief - p.area * v),
-                         (target - Q) / p.valve_tau])
-
-    def _relief(self, dP: float) -> float:
-        p = self.params
-        if p.relief_pressure is None:
-            return 0.0
-        return valve.relief_flow(dP, p.relief_pressure, p.relief_gain)
+        """(dΔP/dt, dQ/dt), Pa/s and m³/s² (the C law, :func:`.valve.cylinder_rates`)."""
+        return valve.cylinder_rates(self.law, float(x[0]), float(x[1]), float(u), float(v))
 
     def force(self, x: np.ndarray, u: float, q: float, v: float) -> float:
         """A ΔP, N or N·m."""
@@ -121,11 +113,7 @@ class HydraulicCylinder(ActuatorPlugin):
     def steady(self, force: float, q: float, v: float) -> Steady:
         """ΔP = f/A, Q = A v + Le ΔP + Q_r (the piston's flow, the leakage and what the relief
         lets by), i_v from the valve law (infinite where no current passes Q at that load)."""
-        p = self.params
-        dP = force / p.area
-        Q = p.area * v + p.leakage * dP + self._relief(dP)
-        r = valve.root(Q, dP, 1.0 / p.supply_pressure, p.orifice)
-        u = Q / (p.valve_gain * r) if r > 0.0 else math.copysign(math.inf, Q)
+        dP, Q, u = valve.cylinder_steady(self.law, float(force), float(v))
         return Steady(np.array([dP, Q]), u)
 
     def holding(self, force: float, q: float) -> np.ndarray:
@@ -133,18 +121,14 @@ class HydraulicCylinder(ActuatorPlugin):
         return np.array([force / self.params.area, 0.0])
 
     def jacobians(self, x: np.ndarray, u: float, q: float, v: float) -> Jacobians:
-        """Exact partial derivatives (the relief's slope K_r above its setting)."""
-        p = self.params
-        c = p.bulk_modulus / p.volume
-        dP = float(x[0])
-        du, dp = valve.slopes(u, dP, p.valve_gain, 1.0 / p.supply_pressure, p.orifice)
-        relieving = p.relief_pressure is not None and abs(dP) > p.relief_pressure
-        leak = p.leakage + (p.relief_gain if relieving else 0.0)
+        """Exact partial derivatives (the relief's slope K_r above its setting; the C law's,
+        :func:`.valve.cylinder_partials`)."""
+        d = valve.cylinder_partials(self.law, float(x[0]), float(u))
         return Jacobians(
-            dxdot_dx=np.array([[-c * leak, c], [dp / p.valve_tau, -1.0 / p.valve_tau]]),
-            dxdot_du=np.array([0.0, du / p.valve_tau]),
-            dxdot_dq=np.zeros(2), dxdot_dv=np.array([-c * p.area, 0.0]),
-            df_dx=np.array([p.area, 0.0]), df_du=0.0, df_dq=0.0, df_dv=0.0,
+            dxdot_dx=np.array([[d[0], d[1]], [d[2], d[3]]]),
+            dxdot_du=np.array([0.0, d[4]]),
+            dxdot_dq=np.zeros(2), dxdot_dv=np.array([d[5], 0.0]),
+            df_dx=np.array([self.params.area, 0.0]), df_du=0.0, df_dq=0.0, df_dv=0.0,
         )
 
     @property

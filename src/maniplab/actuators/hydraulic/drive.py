@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from maniplab.actuators.drive import ForceDrive
+from maniplab.actuators.drive import CompiledDrive, ForceDrive
 from maniplab.actuators.hydraulic.valve import valve_current
 
 if TYPE_CHECKING:
@@ -139,3 +139,13 @@ class PressureDrive(ForceDrive):
     def speed_command(self, speed: Array) -> Array:
         """i_v = v A / C, the no-load valve inversion, clipped."""
         return self.clip(speed * self.area / self.gain)
+
+    def compiled(self) -> CompiledDrive:
+        """``valve``: this drive's pressure loop and G2 in C, with its gains and parameters."""
+        loop = self.loop
+        return CompiledDrive("valve", {
+            "area": self.area, "valve_gain": self.gain, "supply": self.supply,
+            "orifice": self.orifice, "capacitance": loop._cap, "leakage": loop._leak,
+            "pressure_kp": loop._kp, "pressure_ki": loop._ki, "min_root": self.min_root,
+            "rate_alpha": loop._alpha, "speed_gain": loop.speed_gain,
+            "compressibility": loop.compressibility})
