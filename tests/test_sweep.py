@@ -106,3 +106,29 @@ def test_runs_on_a_local_dask_cluster(tmp_path: Path) -> None:
                      executor=client, inputs={"q2": ml.signals.constant(1.0)})
     assert [r.spec.end_effector.mass for r in runs] == [0.5, 1.5]
     assert not runs.failures
+
+
+def test_threaded_sweep_equals_simulating_each_variant(grid_runs: RunSet) -> None:
+    """The default sweep of arms that need no Python per step runs in threads of this process
+    (the plant in C releases the GIL): each run is bit for bit the variant simulated alone."""
+    from maniplab.sim.sweep import _needs_python
+
+    base = ml.builtin_spec("erector")
+    assert not _needs_python(base, [dict(zip(GRID, p)) for p in [(3000.0, 1e-12)]], {})
+    for run in list(grid_runs)[:2]:
+        alone = ml.simulate(base.with_overrides(run.meta["overrides"]), duration=3.0,
+                            inputs={"q2": ml.signals.step(0.2, t0=0.1)},
+                            initial={"dP": "gravity"})
+        np.testing.assert_array_equal(run.q, alone.q)
+        np.testing.assert_array_equal(run["dP"], alone["dP"])
+
+
+def test_variants_that_need_python_go_to_processes() -> None:
+    from maniplab.sim.sweep import _needs_python
+
+    motor = {"type": "plugins.dcmotor:GearedDCMotor", "resistance": 1.0, "inductance": 5e-3,
+             "torque_constant": 0.5, "gear_ratio": 100.0}
+    base = ml.builtin_spec("crane3")
+    assert not _needs_python(base, [{}], {})
+    assert _needs_python(base, [{}, {"joints.slew.actuator": motor}], {})  # a Python actuator
+    assert _needs_python(base, [{}], {"controller": lambda t, s: [0.0] * 3})

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import difflib
+import functools
 import os
 from importlib import resources
 from pathlib import Path
@@ -28,6 +29,13 @@ def builtin_spec(name: str) -> ManipulatorSpec:
         raise SpecError(
             f"no built-in spec {name!r}; expected one of {', '.join(names)}{_hint(name)}"
         )
+    return _load_builtin(name)
+
+
+@functools.cache
+def _load_builtin(name: str) -> ManipulatorSpec:
+    """A built-in spec, parsed once per process (specs are frozen; the files ship with the
+    package)."""
     return load_spec(_assets() / f"{name}.yaml")
 
 

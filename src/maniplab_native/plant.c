@@ -545,6 +545,9 @@ static void record_row(const ml_plant* p, ml_run* r, double t) {
   memcpy(r->act + (size_t)row * na, p->ract, na * sizeof(double));
   memcpy(r->ctrl + (size_t)row * n, p->ru, n * sizeof(double));
   memcpy(r->mode + (size_t)row * n, p->rmode, n);
+  if (r->ee_pos && r->ee_body >= 0) {
+    memcpy(r->ee_pos + (size_t)row * 3, p->d->xpos + 3 * r->ee_body, 3 * sizeof(double));
+  }
 }
 
 static void record_forces(const ml_plant* p, ml_run* r, int row) {

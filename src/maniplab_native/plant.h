@@ -76,7 +76,8 @@ typedef struct ml_plant ml_plant;
    k < steps and t >= next_call - 1e-9 dt, then next_call += period (period 0: every step).
    Rows are recorded at samples with k % every == 0 and at k == steps: the state at the step's
    start (q, qd after the step's stick resets, act), the clipped command, the modes, and the
-   friction and limit forces of the step (the last row: the last step's). */
+   friction and limit forces of the step (the last row: the last step's), and the position of
+   body ee_body (from the step's forward pass). */
 typedef struct {
   int steps;
   double t0, dt;
@@ -98,6 +99,8 @@ typedef struct {
   signed char* mode;       /* (rows, n) */
   double* fric;            /* (rows, n) */
   double* limit;           /* (rows, n) */
+  int ee_body;             /* a body whose position is recorded (the end-effector), or -1 */
+  double* ee_pos;          /* (rows, 3): its position at the step's start (d->xpos) */
 } ml_run;
 
 /* Outcome details after a call returned an error. */

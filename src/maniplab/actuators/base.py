@@ -24,7 +24,8 @@ derivatives, force         the plant (MuJoCo integrates the states through its c
                            the linearisation
 mujoco_plugin              a MuJoCo engine plugin (C) that models the actuator inside MuJoCo:
                            the plant and every MuJoCo tool integrate it with no Python per
-                           step (the hydraulic cylinder's ``maniplab.hydraulic``)
+                           step (the hydraulic cylinder's ``maniplab.hydraulic``);
+                           ``runs_in_mujoco`` tells sweeps they may run it in threads
 configure_mjcf             how the exported MJCF declares the actuator
 steady, holding            operating points (the state and command that hold a force), the
                            plant's start "held against gravity", the default drive
@@ -326,6 +327,13 @@ class ActuatorPlugin(abc.ABC):
         J = np.array(columns).T  # (k + 1, k + 3)
         return Jacobians(J[:k, :k], J[:k, k], J[:k, k + 1], J[:k, k + 2], J[k, :k],
                          float(J[k, k]), float(J[k, k + 1]), float(J[k, k + 2]))
+
+    def runs_in_mujoco(self) -> bool:
+        """Whether MuJoCo computes the actuator by itself, with no Python per step: it has an
+        engine plugin, or declares itself in :meth:`configure_mjcf` otherwise than the default
+        (which makes it a ``user`` actuator that the plant's callbacks compute in Python)."""
+        return (self.mujoco_plugin() is not None
+                or type(self).configure_mjcf is not ActuatorPlugin.configure_mjcf)
 
     def mujoco_plugin(self) -> EnginePlugin | None:
         """The MuJoCo engine plugin (C code registered with MuJoCo) that models this actuator

@@ -16,6 +16,13 @@ Each controller sample (at ``rate`` Hz, zero-order hold in between):
 joint errors by the same damped least squares and a PID per joint commands a joint speed, which a
 valve's drive turns into a current directly (a drive without a speed command gets the speed
 times the joint's inertia as a force).
+
+The sample runs in C (``maniplab_native/cascade.c``, through :mod:`~maniplab.control.native`),
+a few microseconds on a 6-joint arm: the blocks above give it their settings, and the C code
+computes what they compute. Joints whose drive is a plugin's Python (a drive without
+:meth:`~maniplab.actuators.ForceDrive.compiled`) get their command from that drive, from the
+desired forces (or joint speeds) the C sample leaves. :meth:`CascadeController.native` gives the
+plant's run loop the sample as a C function, for runs with no Python per sample.
 """
 
 from __future__ import annotations
@@ -28,9 +35,20 @@ from typing import Any
 import numpy as np
 
 from maniplab.actuators import ActuatorPlugin, ForceDrive
+from maniplab.clib import Functions
 from maniplab.control.errors import ControlError
 from maniplab.control.inverse_dynamics import InverseDynamics
-from maniplab.control.kinematics import DampedLeastSquares, Kinematics, matrix_to_rpy, rotation_log
+from maniplab.control.kinematics import Kinematics, matrix_to_rpy
+from maniplab.control.native import (
+    AUX_INERTIA,
+    AUX_QD_REF,
+    AUX_SPEED,
+    AUX_TAU,
+    REF_SIZE,
+    CompiledCascade,
+    NativeController,
+    pack_reference,
+)
 from maniplab.control.pid import PID
 from maniplab.control.trajectory import Trajectory
 from maniplab.control.tuning import resolve
@@ -51,6 +69,10 @@ LOG_SIGNALS: dict[str, tuple[str, str]] = {
             "A | N·m | N | ..."),
 }
 """The cascade's own log; the drives add theirs (e.g. the hydraulic ``dP_d`` and ``phi``)."""
+
+_BUFFERS = {"x_d": "x_d", "x": "x", "e_x": "e", "a_x": "a_x", "qdd_d": "qdd", "tau_d": "tau",
+            "dP_d": "dP_d", "phi": "phi", "cmd": "cmd"}
+"""Signals the compiled sample logs -> its log buffer (:data:`~maniplab.control.native.LOG_FIELDS`)."""
 
 
 def _read(state: Any, name: str) -> np.ndarray | None:
@@ -78,6 +100,8 @@ class CascadeController:
 
     Attributes:
         dt: sample time, s.  rows: task rows of the Jacobian, e.g. [0, 1, 2].
+        outer, joint_pid, g1, drives: the blocks (the outer PID, the baseline's joint PID, G1,
+            one drive per actuator class) whose settings the compiled sample runs with.
     """
 
     def __init__(self, spec: ManipulatorSpec, trajectory: Trajectory, *,
@@ -91,6 +115,7 @@ class CascadeController:
         self.spec, self.trajectory, self.gains, self.mode = spec, trajectory, gains, mode
         self.n = spec.n
         self.model = model or AnalyticModel(spec)
+        _require_compiled(self.model)
         self.kin = Kinematics(self.model)
         self.actuators: list[ActuatorPlugin] = [model_of(j) for j in spec.joints]
         self.rate = _given(gains.rate)
@@ -121,23 +146,24 @@ class CascadeController:
         self._velocity_gain = _given(b.velocity_gain)
         self._limit = np.concatenate([d.limit for d in self.drives])[
             np.argsort(np.concatenate([d.joints for d in self.drives]))]
-        self._nan_n, self._nan_6 = np.full(n, np.nan), np.full(6, np.nan)
         self._redundant = n > m and g.null_damping > 0.0
         # joint weights of the least squares: each joint's top speed, relative (1 where unlimited)
         finite = np.isfinite(vmax)
         top = vmax[finite].max() if finite.any() else 1.0
         self.weights = (np.where(finite, vmax / top, 1.0) if g.capacity_weighting else None)
+        self._c = CompiledCascade(self)
+        self._python = self._c.python
+        self._extra = [k for k in self.log_signals if k not in _BUFFERS]
+        """Signals only Python drives log (the C log has the others)."""
 
     def reset(self) -> None:
         """Clear the loops' states, the held command and the log."""
-        self.outer.reset()
+        self._c.reset()
         for drive in self.drives:
             drive.reset()
-        self.joint_pid.reset()
         self._next = -math.inf
         self._command = np.zeros(self.n)
-        self._saturated = False
-        self._log: dict[str, list[Any]] = {k: [] for k in ("t", *self.log_signals)}
+        self._python_log: dict[str, list[np.ndarray | None]] = {k: [] for k in self._extra}
 
     # --- the control law ---------------------------------------------------------------------
     def __call__(self, t: float, state: Any) -> np.ndarray:
@@ -165,105 +191,103 @@ class CascadeController:
         """One controller sample (no hold): the command for state (q, q̇, actuator states by
         name, each (n,)), shape (n,)."""
         ref = self.trajectory.sample(t)
-        p, R = self.kin.pose(q)
-        J = self.kin.jacobian(q)
-        rows = self.rows
-        m = len(rows)
-        e = self._nan_6.copy()  # logged; the orientation part only on a pose task
-        e[:3] = ref.position - p
-        if m == 6:
-            e[3:] = rotation_log(ref.rotation @ R.T)
-        Js = J[:m]
-        de = ref.twist[:m] - Js @ qd
-        dls = DampedLeastSquares(Js, damping=self.gains.dls_damping,
-                                 threshold=self.gains.dls_threshold, weights=self.weights)
-        if self.mode == "pid":
-            cmd, log = self._pid_only(q, qd, states, dls, e[:m], de)
-        else:
-            cmd, log = self._cascade(q, qd, states, ref, dls, e[:m], de)
-        self._record(t, ref, p, R, e, log, cmd)
+        dP = states.get("dP")
+        if dP is None and "dP" in self._needs:
+            raise TypeError("the controller's hydraulic joints need the state dP")
+        cmd = self._c.sample(t, ref, q, qd, dP)
+        if not self._python:
+            self._c.commit(cmd)
+            return cmd
+        rows = self._python_commands(cmd, np.asarray(q, dtype=float),
+                                     np.asarray(qd, dtype=float), states)
+        self._c.commit(cmd)
+        self._record_python(rows)
         return cmd
 
-    def _cascade(self, q: np.ndarray, qd: np.ndarray, states: dict[str, np.ndarray], ref: Any,
-                 dls: DampedLeastSquares, e: np.ndarray, de: np.ndarray
-                 ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-        m = len(self.rows)
-        a_x = ref.accel[:m] + self.outer.update(e, de, freeze=self._saturated)
-        rhs = np.empty((m, 3))
-        rhs[:, 0] = a_x - self.kin.bias_acceleration(q, qd)[:m]
-        rhs[:, 1] = ref.twist[:m]
-        rhs[:, 2] = dls.J @ qd
-        sol = dls.solve(rhs)
-        qdd, qd_ref = sol[:, 0], sol[:, 1]
-        if self._redundant:  # null-space damping: (I - J⁺J) q̇ = q̇ - J⁺(J q̇)
-            qdd = qdd - self.gains.null_damping * (qd - sol[:, 2])
-        tau = self.g1.torque(q, qd, qdd, qd_ref)
-        cmd = np.empty(self.n)
+    def _python_commands(self, cmd: np.ndarray, q: np.ndarray, qd: np.ndarray,
+                         states: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """The commands of the joints whose drive is Python's (into ``cmd``), from the forces or
+        speeds the compiled sample left; returns their drives' log rows (cascade mode)."""
+        aux = self._c.aux
         log: dict[str, np.ndarray] = {}
-        for drive in self.drives:
+        for drive in self._python:
             j = drive.joints
-            cmd[j] = drive.command(tau[j], q[j], qd[j], qd_ref[j],
-                                   {k: v[j] for k, v in states.items()})
+            mine = {k: np.asarray(v)[j] for k, v in states.items()}
+            if self.mode == "pid":  # a joint speed, or a velocity loop's force
+                speed = drive.speed_command(aux[AUX_SPEED, j])
+                if speed is None:
+                    force = aux[AUX_INERTIA, j] * self._velocity_gain * (aux[AUX_SPEED, j] - qd[j])
+                    speed = drive.command(force, q[j], qd[j], qd[j], mine)
+                cmd[j] = speed
+                continue
+            cmd[j] = drive.command(aux[AUX_TAU, j], q[j], qd[j], aux[AUX_QD_REF, j], mine)
             for name, values in drive.log.items():
-                log.setdefault(name, self._nan_n.copy())[j] = values
-        self._saturated = bool((np.abs(cmd) >= self._limit).any())
-        a_full = self._nan_6.copy()
-        a_full[:m] = a_x
-        return cmd, {"a_x": a_full, "qdd_d": qdd, "tau_d": tau, **log}
+                log.setdefault(name, np.full(self.n, np.nan))[j] = values
+        return log
 
-    def _pid_only(self, q: np.ndarray, qd: np.ndarray, states: dict[str, np.ndarray],
-                  dls: DampedLeastSquares, e: np.ndarray, de: np.ndarray
-                  ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-        sol = dls.solve(np.stack([e, de], axis=1))
-        u = self.joint_pid.update(sol[:, 0], sol[:, 1])  # joint speeds
-        cmd = np.empty(self.n)
-        inertia = None
-        for drive in self.drives:
-            j = drive.joints
-            speed = drive.speed_command(u[j])
-            if speed is None:  # not a speed source: a velocity loop gives it a force
-                inertia = np.diagonal(self.model.M(q)) if inertia is None else inertia
-                force = inertia[j] * self._velocity_gain * (u[j] - qd[j])
-                speed = drive.command(force, q[j], qd[j], qd[j],
-                                      {k: v[j] for k, v in states.items()})
-            cmd[j] = speed
-        nan6, nan = np.full(6, np.nan), np.full(self.n, np.nan)
-        return cmd, {"a_x": nan6, "qdd_d": nan, "tau_d": nan,
-                     **{k: nan for d in self.drives for k in d.signals}}
+    def _record_python(self, rows: dict[str, np.ndarray]) -> None:
+        """The Python drives' signals of the sample just committed (NaN in pid mode)."""
+        row = self._c.count - 1
+        for name, values in rows.items():
+            if name in _BUFFERS:  # a signal the C sample logs too: the Python joints' part
+                buffer = self._c.log[_BUFFERS[name]]
+                known = ~np.isnan(values)
+                buffer[row, known] = values[known]
+        for name in self._extra:
+            self._python_log[name].append(rows.get(name))
+
+    # --- the plant's run loop ----------------------------------------------------------------
+    def native(self, plant: Any, times: np.ndarray) -> NativeController | None:
+        """The controller as a C function the plant's run loop calls at ``times`` with no Python.
+
+        Args:
+            plant: the plant the loop steps (its joints must be this controller's).
+            times: the exact sample times the loop calls the function at, s, ascending, (K,).
+
+        Returns:
+            A :class:`~maniplab.control.native.NativeController` (``function`` and ``context``
+            addresses; it keeps every buffer alive), or None when a joint's drive runs in Python
+            (then call the controller itself). After the run, :meth:`signals`, :attr:`times`,
+            :meth:`signals_at` and :meth:`annotate` show the samples it made, after any made
+            before (as calling the controller at those times would).
+
+        Raises:
+            ControlError: the plant has other joints than the controller's arm.
+        """
+        if self._python:
+            return None
+        n = getattr(plant, "n", self.n)
+        if n != self.n:
+            raise ControlError(f"the plant has {n} joints; the controller's arm has {self.n}")
+        times = np.ascontiguousarray(times, dtype=float).reshape(-1)
+        refs = np.empty((len(times), REF_SIZE))
+        for k, t in enumerate(times):
+            pack_reference(self.trajectory.sample(float(t)), refs[k])
+        self._c.reserve(len(times))
+        return NativeController(self._c, times, refs)
 
     # --- the log -----------------------------------------------------------------------------
-    def _record(self, t: float, ref: Any, p: np.ndarray, R: np.ndarray, e: np.ndarray,
-                log: dict[str, np.ndarray], cmd: np.ndarray) -> None:
-        L = self._log
-        L["t"].append(t)
-        L["x_d"].append((ref.position, ref.rotation))
-        L["x"].append((p, R))
-        L["e_x"].append(e)
-        for k in self.log_signals:
-            if k not in ("x_d", "x", "e_x", "cmd"):
-                L[k].append(log.get(k))
-        L["cmd"].append(cmd.copy())
-
     @property
     def times(self) -> np.ndarray:
         """Sample times of the log, s, shape (K,)."""
-        return np.array(self._log["t"], dtype=float)
+        return self._c.rows_of("t")
 
     def signals(self) -> dict[str, np.ndarray]:
         """The logged signals (see ``LOG_SIGNALS``), name -> array (K, k), one row per sample."""
         n = self.n
-        width = {"x_d": 6, "x": 6, "e_x": 6, "a_x": 6}
-        nan = np.full(n, np.nan)
         out = {}
-        for k, v in self._log.items():
-            if k == "t":
-                continue
-            if not v:
-                out[k] = np.zeros((0, width.get(k, n)))
-            elif k in ("x_d", "x"):  # stored as (p, R): written as [x, y, z, roll, pitch, yaw]
-                out[k] = np.array([np.concatenate([p, matrix_to_rpy(R)]) for p, R in v])
+        for k in self.log_signals:
+            if k in ("x_d", "x"):  # logged as (p, R): written as [x, y, z, roll, pitch, yaw]
+                rows = self._c.rows_of(_BUFFERS[k])
+                out[k] = np.array([np.concatenate([r[:3], matrix_to_rpy(r[3:].reshape(3, 3))])
+                                   for r in rows]).reshape(len(rows), 6)
+            elif k in _BUFFERS:
+                out[k] = self._c.rows_of(_BUFFERS[k])
             else:
-                out[k] = np.stack([nan if x is None else x for x in v])
+                v = self._python_log[k]
+                nan = np.full(n, np.nan)
+                out[k] = (np.stack([nan if x is None else x for x in v]) if v
+                          else np.zeros((0, n)))
         return out
 
     def signals_at(self, t: np.ndarray) -> dict[str, np.ndarray]:
@@ -303,6 +327,20 @@ class CascadeController:
             raise ControlError(f"the run already has signals {clash}")
         meta = {**dict(run.meta), "control": self.settings()}
         return type(run)(t=run.t, signals={**run.signals, **extra}, spec=run.spec, meta=meta)
+
+
+def _require_compiled(model: AnalyticModel) -> None:
+    """The cascade's sample is C: a model on the Python backend (no C compiler) cannot serve it.
+
+    Raises:
+        ModelError: no C compiler (the native library cannot be built), one line.
+        ControlError: the model was made with ``backend="python"``.
+    """
+    if model.backend == "c":
+        return
+    Functions({})()  # without a compiler: the library's one-line error
+    raise ControlError(f"the cascade controller runs compiled: its model of {model.spec.name} "
+                       f"must have the C backend, not {model.backend!r}")
 
 
 def _given(value: float | None) -> float:

@@ -51,7 +51,8 @@ class RunStruct(ctypes.Structure):
         ("inputs", _D), ("held", _D), ("controller", c_void_p), ("controller_context", c_void_p),
         ("period", c_double), ("next_call", c_double), ("every", c_int), ("rows", c_int),
         ("t", _D), ("q", _D), ("qd", _D), ("act", _D), ("ctrl", _D),
-        ("mode", POINTER(ctypes.c_byte)), ("fric", _D), ("limit", _D),
+        ("mode", POINTER(ctypes.c_byte)), ("fric", _D), ("limit", _D), ("ee_body", c_int),
+        ("ee_pos", _D),
     ]
 
 

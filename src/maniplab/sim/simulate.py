@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import ctypes
+import functools
 import json
 import math
 import platform
@@ -228,7 +229,7 @@ class _Loop:
         self.buffers = {"t": np.zeros(rows), "q": np.zeros((rows, n)), "qd": np.zeros((rows, n)),
                         "act": np.zeros((rows, max(na, 1))), "ctrl": np.zeros((rows, n)),
                         "mode": np.zeros((rows, n), np.int8), "fric": np.zeros((rows, n)),
-                        "limit": np.zeros((rows, n))}
+                        "limit": np.zeros((rows, n)), "ee_pos": np.zeros((rows, 3))}
         self.held = np.zeros(n)
         self.error: BaseException | None = None
         function, context = self._controller(controller, steps, period)
@@ -241,7 +242,8 @@ class _Loop:
             t=native.pointer(b["t"]), q=native.pointer(b["q"]), qd=native.pointer(b["qd"]),
             act=native.pointer(b["act"]), ctrl=native.pointer(b["ctrl"]),
             mode=native.pointer(b["mode"], ctypes.c_byte), fric=native.pointer(b["fric"]),
-            limit=native.pointer(b["limit"]))
+            limit=native.pointer(b["limit"]), ee_body=plant.model.body(END_EFFECTOR).id,
+            ee_pos=native.pointer(b["ee_pos"]))
 
     def _controller(self, controller: Controller | None, steps: int,
                     period: float | None) -> tuple[int | None, int | None]:
@@ -314,20 +316,8 @@ class _Loop:
         out["tau_fric"] = b["fric"] - p.viscous * qd  # applied + viscous at t_k
         out["tau_limit"] = b["limit"].copy()
         out["mode"] = b["mode"].copy()
-        out["ee_pos"] = _end_effector(p.model, q)
+        out["ee_pos"] = b["ee_pos"].copy()
         return out
-
-
-def _end_effector(model: mujoco.MjModel, q: np.ndarray) -> np.ndarray:
-    """Position of the end-effector (payload point) for each row of q, m, (N, 3)."""
-    data = mujoco.MjData(model)
-    body = model.body(END_EFFECTOR).id
-    out = np.empty((len(q), 3))
-    for r, row in enumerate(q):
-        data.qpos[:] = row
-        mujoco.mj_kinematics(model, data)
-        out[r] = data.xpos[body]
-    return out
 
 
 def _meta(plant: Plant, inputs: Mapping[Any, Any], controller: Controller | None,
@@ -365,6 +355,7 @@ def _jsonable(value: Any) -> Any:
                                  if isinstance(v, (np.ndarray, np.generic)) else repr(v)))
 
 
+@functools.cache
 def _version(package: str) -> str:
     try:
         return version(package)

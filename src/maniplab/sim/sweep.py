@@ -1,10 +1,14 @@
 """Parameter sweeps: many variants of one arm simulated in parallel, stored as a RunSet.
 
-By default the variants run on local processes (``concurrent.futures.ProcessPoolExecutor``); any
-``concurrent.futures.Executor`` can be given instead, or a ``dask.distributed.Client`` for a
-cluster (its ``get_executor()`` is used). Runs travel back to the caller, which writes them, so
-workers need no shared disk. A variant that fails is reported with its parameters and does not
-stop the others.
+Where no variant needs Python while it steps (no controller, every actuator computed inside
+MuJoCo: torque sources, hydraulic cylinders), the variants run in threads of this process: the
+plant in C releases the GIL for a whole run, so the threads run on all cores with no pickling and
+no worker start-up, like ``mujoco.rollout`` but with maniplab's friction/limit automaton (which
+rollout, stepping plain MuJoCo, cannot apply). Otherwise they run on local processes
+(``concurrent.futures.ProcessPoolExecutor``). Any ``concurrent.futures.Executor`` can be given
+instead, or a ``dask.distributed.Client`` for a cluster (its ``get_executor()`` is used). Runs
+travel back to the caller, which writes them, so workers need no shared disk. A variant that
+fails is reported with its parameters and does not stop the others.
 """
 
 from __future__ import annotations
@@ -24,7 +28,7 @@ from maniplab.sim.params import format_parameters
 from maniplab.sim.run import Run
 from maniplab.sim.runset import Failure, RunSet
 from maniplab.sim.simulate import simulate
-from maniplab.spec import ManipulatorSpec
+from maniplab.spec import ManipulatorSpec, model_of
 
 Variants = Mapping[str, Sequence[Any]] | Sequence[Mapping[str, Any]]
 
@@ -58,9 +62,11 @@ def sweep(spec: ManipulatorSpec | str | os.PathLike[str], grid: Variants, *,
         out: folder for the run files (``<index>_<parameters>.npz``; created if missing).
         inputs: as for :func:`maniplab.simulate` (signals must be picklable: ``ml.signals`` are).
         duration: simulated time per variant, s.
-        executor: a ``concurrent.futures.Executor`` or a ``dask.distributed.Client``; default a
-            process pool of ``processes`` workers (default: the machine's cores).
-        processes: workers of the default pool; 1 runs in this process.
+        executor: a ``concurrent.futures.Executor`` or a ``dask.distributed.Client``; default
+            ``processes`` threads when no variant needs Python per step (see above), else a
+            process pool of ``processes`` workers.
+        processes: workers of the default pool (default: the machine's cores); 1 runs in this
+            process.
         progress: show a progress bar (default: when stderr is a terminal).
         **simulate_args: more keyword arguments of :func:`maniplab.simulate` (dt, initial,
             controller, sample_dt, ...).
@@ -77,7 +83,8 @@ def sweep(spec: ManipulatorSpec | str | os.PathLike[str], grid: Variants, *,
     paths: dict[int, Path] = {}
     failures: list[Failure] = []
     bar = Progress(len(todo), f"sweep {base.name}", progress)
-    with _executor(executor, processes) as pool:
+    threads = executor is None and not _needs_python(base, todo, simulate_args)
+    with _executor(executor, processes, threads) as pool:
         futures = {pool.submit(job, overrides): i for i, overrides in enumerate(todo)}
         for future in cf.as_completed(futures):
             i = futures[future]
@@ -102,9 +109,10 @@ class _Job:
 
     def __call__(self, overrides: dict[str, Any]) -> Run | str:
         try:
+            args = {"progress": False, **self.args}
             return simulate(self.base, overrides=overrides, inputs=self.inputs,
                             duration=self.duration, label=format_parameters(overrides) or None,
-                            **self.args)
+                            **args)
         except ManiplabError as exc:
             return str(exc)
         except Exception as exc:  # noqa: BLE001 - a worker's bug must not stop the other variants
@@ -120,11 +128,29 @@ class _InProcess(cf.Executor):
         return future
 
 
-def _executor(executor: Any, processes: int | None) -> cf.Executor:
+def _needs_python(base: ManipulatorSpec, todo: list[dict[str, Any]],
+                  simulate_args: Mapping[str, Any]) -> bool:
+    """Whether some variant runs Python while it steps: a controller (shared by the variants, so
+    each process gets its own copy), or an actuator MuJoCo does not compute itself."""
+    if simulate_args.get("controller") is not None:
+        return True
+    for overrides in todo:
+        try:
+            spec = base.with_overrides(overrides)
+        except ManiplabError:
+            continue  # reported by the variant's job
+        if not all(model_of(j).runs_in_mujoco() for j in spec.joints):
+            return True
+    return False
+
+
+def _executor(executor: Any, processes: int | None, threads: bool) -> cf.Executor:
     if executor is None:
         if processes == 1:
             return _InProcess()
-        return cf.ProcessPoolExecutor(max_workers=processes or os.cpu_count() or 1)
+        workers = processes or os.cpu_count() or 1
+        return (cf.ThreadPoolExecutor(max_workers=workers) if threads
+                else cf.ProcessPoolExecutor(max_workers=workers))
     if hasattr(executor, "get_executor"):  # dask.distributed.Client
         return _Borrowed(executor.get_executor())
     if isinstance(executor, cf.Executor):
