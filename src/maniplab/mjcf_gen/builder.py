@@ -15,7 +15,12 @@
   joint; for a hydraulic one an instance of the engine plugin ``maniplab.hydraulic`` with its
   two activation states (ΔP, Q) and every parameter, which MuJoCo integrates itself, in the plant
   and in any MuJoCo tool (:mod:`maniplab_native`);
-- after them, for each joint with LuGre friction, an actuator ``<joint>/lugre`` that is an
+- the joints' friction as plain MuJoCo can model it: the viscous part as the joint's
+  ``damping``, hybrid stick/slip friction as MuJoCo's dry friction ``frictionloss`` at the
+  Coulomb level (MuJoCo has no stiction above it), and the limits as MuJoCo's soft joint limits;
+  maniplab's plant replaces the last two with its exact friction/limit automaton
+  (:mod:`maniplab.sim.plant_model`);
+- after the arm's actuators, for each joint with LuGre friction, an actuator ``<joint>/lugre`` that is an
   instance of the engine plugin ``maniplab.lugre``: its one activation is the bristle state z,
   its force the bristles' (σ2, the viscous part, is the joint's damping in the plant).
 
@@ -163,12 +168,15 @@ def _add_link(parent: mujoco.MjsBody, joint: Joint, at: np.ndarray) -> mujoco.Mj
     body = parent.add_body(name=names.body_name(joint.name), pos=list(at))
     _set_inertial(body, joint.body or Body())
     limited = mujoco.mjtLimited.mjLIMITED_TRUE if joint.limits else mujoco.mjtLimited.mjLIMITED_FALSE
+    f = joint.friction
     body.add_joint(
         name=joint.name,
         type=mujoco.mjtJoint.mjJNT_SLIDE if joint.prismatic else mujoco.mjtJoint.mjJNT_HINGE,
         axis=list(joint.axis_vector),
         range=list(joint.limits) if joint.limits else [0.0, 0.0],
         limited=limited,
+        damping=[f.damping, 0.0, 0.0],
+        frictionloss=f.coulomb if f.model is FrictionModel.hybrid else 0.0,
     )
     return body
 

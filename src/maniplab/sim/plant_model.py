@@ -2,11 +2,13 @@
 
 Changes to the arm's model, all made on the MjSpec before compiling:
 
-- MuJoCo's own joint-limit constraints, contacts (the arm's geoms are drawing only) and its
-  auto-reset on bad accelerations are disabled (the limit automaton holds joints at their limits;
-  a NaN must reach the instability check); collision detection alone was 12 % of a step;
-- viscous friction (``friction.viscous``, LuGre's σ2) becomes the joint's damping, so MuJoCo
-  integrates it inside the step.
+- MuJoCo's own joint-limit constraints and dry friction (``frictionloss``, the exported file's
+  stand-in for hybrid friction), contacts (the arm's geoms are drawing only) and its auto-reset
+  on bad accelerations are disabled: the friction/limit automaton holds joints that stick or sit
+  on their limits, and a NaN must reach the instability check; collision detection alone was 12 %
+  of a step;
+- viscous friction (``friction.viscous``, LuGre's σ2) is the joint's damping, as in the exported
+  file, so MuJoCo integrates it inside the step.
 
 The actuators are the arm's as the exported MJCF declares them: MuJoCo's motors, maniplab's engine
 plugins (the hydraulic cylinders, LuGre's bristles ``<joint>/lugre``), and ``user`` actuators for
@@ -37,9 +39,7 @@ def build_plant_model(spec: ManipulatorSpec, *, dt: float, integrator: int) -> m
     s.option.timestep = dt
     s.option.integrator = integrator
     s.option.disableflags |= (mujoco.mjtDisableBit.mjDSBL_LIMIT
+                              | mujoco.mjtDisableBit.mjDSBL_FRICTIONLOSS
                               | mujoco.mjtDisableBit.mjDSBL_CONTACT
                               | mujoco.mjtDisableBit.mjDSBL_AUTORESET)
-    joints = {j.name: j for j in s.joints}
-    for joint in spec.joints:
-        joints[joint.name].damping = [joint.friction.damping, 0.0, 0.0]
     return compile_model(s, spec)

@@ -1,0 +1,253 @@
+"""The cascade's sample in C (maniplab_native/cascade.c) against the frozen Python sample it
+replaced (tests/reference/cascade.py).
+
+Closed loops on MuJoCo run the C function the plant's run loop calls (``controller.native``,
+driven here through ctypes with the MjData of ``ml.build_model``) on the built-in arms and the
+corpus arms in both modes; the frozen Python cascade, fed the same states, logs the same signals
+to round-off: 1e-12 relative, with a slack of 1e-11 of each signal's largest value where a value
+crosses zero (the two compute in different orders: BLAS and LAPACK against plain loops and a
+Jacobi SVD). The runs include samples where valves saturate and where the least squares damp a
+near-singular Jacobian. The Python path (``step``) runs the same C code: bit for bit the native
+run. Drives written in Python (a plugin's DC motor) get their commands from Python."""
+
+from __future__ import annotations
+
+import ctypes
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+from reference.cascade import ReferenceCascade
+
+import maniplab as ml
+from maniplab.control import CascadeController, Hold, MinJerkMove, Pose, rotation_exp
+from maniplab.spec import model_of
+
+ARMS = Path(__file__).parent / "arms"
+RTOL, SLACK = 1e-12, 1e-11
+
+CONTROLLER = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, ctypes.c_double, ctypes.c_void_p,
+                              ctypes.c_void_p, ctypes.POINTER(ctypes.c_double))
+"""plant.h's ml_controller_fn."""
+
+# name: (spec, start q, end-effector offset (m), move duration (s), samples)
+CASES = {
+    "erector": ("erector", [-0.18, 1.27, 0.0, 0.0, 0.0, 0.0], (-0.1, 0.05, 0.0), 1.0, 300),
+    "erector-fast": ("erector", [-0.18, 1.27, 0.0, 0.0, 0.0, 0.0], (-0.3, 0.3, 0.1), 0.3, 200),
+    "crane3": ("crane3", [0.0, -0.3, 0.5], (0.1, 0.05, 0.05), 0.4, 300),
+    "planar2": ("planar2", [0.3, 0.15], (0.05, 0.0, 0.02), 0.8, 300),  # nearly stretched
+    "excavator": (ARMS / "excavator.yaml", [0.0, -0.3, 0.3, 0.0], (0.1, 0.05, -0.05), 1.0, 300),
+    "gantry": (ARMS / "gantry.yaml", [2.0, 1.0, -1.0], (0.1, 0.1, -0.05), 1.0, 300),
+    "erector7": (ARMS / "erector7.yaml", [-0.18, 1.27, 0.0, 0.0, 0.0, 0.0, 0.0],
+                 (-0.1, 0.05, 0.0), 1.0, 300),
+    "electric2": (ARMS / "electric2.yaml", [-0.5, 1.0], (0.1, 0.0, 0.1), 0.8, 300),
+    "loader-crane": (ARMS / "loader_crane.yaml", [0.0, -0.6, 1.2, 0.5], (0.1, 0.05, 0.05), 0.4,
+                     300),
+}
+
+State = tuple[float, np.ndarray, np.ndarray, np.ndarray]
+
+
+def controller_for(name: str, mode: str) -> tuple[CascadeController, list[float], int]:
+    source, q0, offset, duration, samples = CASES[name]
+    spec = ml.resolve_spec(str(source))
+    model = ml.AnalyticModel(spec)
+    start = Pose.from_matrix(model.fk(np.array(q0)))
+    move = MinJerkMove(start, start.translated(offset), duration, t0=0.05)
+    return CascadeController(spec, move, model=model, mode=mode), q0, samples
+
+
+def held_against_gravity(controller: CascadeController, q0: list[float]
+                         ) -> tuple[mujoco.MjModel, mujoco.MjData]:
+    """The arm's MuJoCo model at q0, each actuator's states holding gravity."""
+    spec = controller.spec
+    m = ml.build_model(spec)
+    d = mujoco.MjData(m)
+    d.qpos[:] = q0
+    gravity = controller.model.G(np.array(q0, dtype=float))
+    for j, joint in enumerate(spec.joints):
+        if m.actuator_actnum[j]:
+            adr = m.actuator_actadr[j]
+            d.act[adr:adr + m.actuator_actnum[j]] = model_of(joint).holding(gravity[j], q0[j])
+    mujoco.mj_forward(m, d)
+    return m, d
+
+
+def pressures(m: mujoco.MjModel, d: mujoco.MjData, n: int) -> np.ndarray:
+    return np.array([d.act[m.actuator_actadr[j]] if m.actuator_actnum[j] else np.nan
+                     for j in range(n)])
+
+
+def closed_loop(controller: CascadeController, q0: list[float], samples: int) -> list[State]:
+    """The loop closed on MuJoCo through the native controller, as the plant's run loop calls
+    it; the states it was called with."""
+    m, d = held_against_gravity(controller, q0)
+    steps = round(controller.dt / m.opt.timestep)
+    times = np.arange(samples) * steps * m.opt.timestep
+    native = controller.native(None, times)
+    assert native is not None
+    function = CONTROLLER(native.function)
+    u = np.zeros(controller.n)
+    states = []
+    for t in times:
+        d.time = t
+        states.append((float(t), d.qpos.copy(), d.qvel.copy(), pressures(m, d, controller.n)))
+        status = function(native.context, t, m._address, d._address,
+                          u.ctypes.data_as(ctypes.POINTER(ctypes.c_double)))
+        assert status == 0, native.message()
+        d.ctrl[:] = u
+        mujoco.mj_step(m, d, nstep=steps)
+    assert native.status == 0 and native.samples == samples
+    return states
+
+
+def assert_same(got: dict[str, np.ndarray], want: dict[str, np.ndarray]) -> None:
+    assert set(got) == set(want)
+    for name, expected in want.items():
+        actual = got[name]
+        assert actual.shape == expected.shape, name
+        assert np.array_equal(np.isnan(actual), np.isnan(expected)), name
+        finite = np.isfinite(expected)
+        scale = float(np.max(np.abs(expected[finite]))) if finite.any() else 0.0
+        np.testing.assert_allclose(actual, expected, rtol=RTOL, atol=SLACK * scale,
+                                   equal_nan=True, err_msg=name)
+
+
+def reference_of(controller: CascadeController, states: list[State]) -> ReferenceCascade:
+    reference = ReferenceCascade(controller)
+    for t, q, qd, dP in states:
+        reference.step(t, q, qd, dP=dP)
+    return reference
+
+
+@pytest.mark.parametrize("mode", ["cascade", "pid"])
+@pytest.mark.parametrize("name", CASES)
+def test_the_native_closed_loop_equals_the_frozen_python_cascade(name: str, mode: str) -> None:
+    controller, q0, samples = controller_for(name, mode)
+    states = closed_loop(controller, q0, samples)
+    reference = reference_of(controller, states)
+    assert_same(controller.signals(), reference.signals())
+    np.testing.assert_array_equal(controller.times, reference.times)
+    saturated = np.any(np.abs(reference.signals()["cmd"]) >= controller._limit, axis=1)
+    if name == "erector-fast":  # the valves saturate (and the outer integrator freezes)
+        assert saturated.sum() > samples / 2
+    if name == "planar2":  # near the stretched arm's singularity the least squares damp
+        assert np.count_nonzero(reference.lam2) > samples / 2
+
+
+@pytest.mark.parametrize("mode", ["cascade", "pid"])
+def test_the_python_path_runs_the_same_code_bit_for_bit(mode: str) -> None:
+    native, q0, samples = controller_for("excavator", mode)
+    states = closed_loop(native, q0, samples)
+    stepped, _, _ = controller_for("excavator", mode)
+    commands = [stepped.step(t, q, qd, dP=dP) for t, q, qd, dP in states]
+    for name, values in native.signals().items():
+        np.testing.assert_array_equal(stepped.signals()[name], values, err_msg=name)
+    np.testing.assert_array_equal(np.array(commands), native.signals()["cmd"])
+
+
+def test_native_samples_follow_python_ones_in_the_log() -> None:
+    """A native run continues the controller's state and log like calling it would."""
+    controller, q0, _ = controller_for("crane3", "cascade")
+    twin, _, _ = controller_for("crane3", "cascade")
+    m, d = held_against_gravity(controller, q0)
+    dP = pressures(m, d, 3)
+    for k in range(3):  # three samples in Python, then three native ones
+        for c in (controller, twin):
+            c(k * controller.dt, {"q": d.qpos, "qd": d.qvel, "dP": dP})
+    times = np.arange(3, 6) * controller.dt
+    native = controller.native(None, times)
+    assert native is not None
+    function = CONTROLLER(native.function)
+    u = np.zeros(3)
+    for t in times:
+        d.time = t
+        assert function(native.context, t, m._address, d._address,
+                        u.ctypes.data_as(ctypes.POINTER(ctypes.c_double))) == 0
+        np.testing.assert_array_equal(u, twin(t, {"q": d.qpos, "qd": d.qvel, "dP": dP}))
+    np.testing.assert_array_equal(controller.times, twin.times)
+    at = controller.signals_at(np.array([-1.0, 0.0, 4.5 * controller.dt, 10.0]))
+    assert np.isnan(at["ctrl.cmd"][0]).all()
+    np.testing.assert_array_equal(at["ctrl.cmd"][2], twin.signals()["cmd"][4])
+    np.testing.assert_array_equal(at["ctrl.dP_d"][3], twin.signals()["dP_d"][5])
+    controller.reset()
+    assert controller.signals()["cmd"].shape == (0, 3) and len(controller.times) == 0
+
+
+def test_the_native_controller_refuses_calls_off_its_schedule_and_non_finite_commands() -> None:
+    controller, q0, _ = controller_for("crane3", "cascade")
+    m, d = held_against_gravity(controller, q0)
+    native = controller.native(None, np.array([0.0, controller.dt]))
+    assert native is not None
+    function = CONTROLLER(native.function)
+    u = np.zeros(3)
+    out = u.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
+    assert function(native.context, 0.5 * controller.dt, m._address, d._address, out) != 0
+    assert "not scheduled" in (native.message() or "")
+    d.qvel[1] = np.nan
+    assert function(native.context, controller.dt, m._address, d._address, out) != 0
+    assert "NaN or infinite" in (native.message() or "") and not np.isfinite(u).all()
+    with pytest.raises(ml.control.errors.ControlError, match="joints"):
+        controller.native(ml.Plant(ml.builtin_spec("planar2")), np.zeros(1))
+
+
+@pytest.mark.parametrize("angle", [0.0, 1e-8, 1e-4, 0.7, np.pi - 2e-4, np.pi - 1e-6, np.pi])
+def test_orientation_errors_take_every_branch_of_the_rotation_log(angle: float) -> None:
+    spec = ml.builtin_spec("erector")
+    model = ml.AnalyticModel(spec)
+    q = np.array([-0.18, 1.27, 0.3, 0.2, -0.4, 0.5])
+    pose = Pose.from_matrix(model.fk(q))
+    axis = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
+    target = Pose(pose.position, rotation_exp(angle * axis) @ pose.rotation)
+    controller = CascadeController(spec, Hold(target, 1.0), model=model)
+    reference = ReferenceCascade(controller)
+    qd, dP = np.full(6, 0.01), np.full(6, 1e6)
+    for k in range(3):
+        controller.step(k * controller.dt, q, qd, dP=dP)
+        reference.step(k * controller.dt, q, qd, dP=dP)
+    got, want = controller.signals()["e_x"], reference.signals()["e_x"]
+    np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-13)
+    assert np.linalg.norm(want[0, 3:]) == pytest.approx(angle, abs=1e-7)  # acos near pi
+
+
+R, K, N, ETA = 1.0, 0.05, 100.0, 0.9
+
+
+def motor_arm() -> ml.ManipulatorSpec:
+    """test_drive's two-link arm on geared DC motors (a plugin whose drive is Python's)."""
+    motor = {"type": "plugins.dcmotor:GearedDCMotor", "resistance": R, "inductance": 2e-3,
+             "torque_constant": K, "gear_ratio": N, "efficiency": ETA, "voltage_limit": 48.0}
+    link = {"type": "R", "axis": "y", "body": {"length": 0.5, "mass": 2.0}, "actuator": motor,
+            "friction": {"model": "hybrid", "viscous": 0.5}}
+    return ml.ManipulatorSpec.from_dict({"name": "motor-arm", "joints": [
+        {"name": "shoulder", **link}, {"name": "elbow", **link}], "end_effector": {"mass": 1.0}})
+
+
+@pytest.mark.parametrize("mode", ["cascade", "pid"])
+def test_python_drives_finish_the_compiled_sample(mode: str) -> None:
+    """The DC motors' volts come from their Python drive, on the forces (or speeds) the C sample
+    left: the same as the frozen cascade's, in a loop closed on MuJoCo through the motors'
+    steady torque."""
+    spec = motor_arm()
+    model = ml.AnalyticModel(spec)
+    q0 = np.array([0.3, 1.2])
+    start = Pose.from_matrix(model.fk(q0))
+    move = MinJerkMove(start, start.translated([0.05, 0.0, 0.04]), 0.5, t0=0.05)
+    controller = CascadeController(spec, move, model=model, mode=mode)
+    assert controller.native(None, np.zeros(1)) is None  # the run loop calls it in Python
+    reference = ReferenceCascade(controller)
+    m = ml.build_model(spec)
+    m.opt.timestep = controller.dt / 5
+    d = mujoco.MjData(m)
+    d.qpos[:] = q0
+    for k in range(200):
+        t = k * controller.dt
+        state = (d.qpos.copy(), d.qvel.copy())
+        volts = controller.step(t, *state)
+        np.testing.assert_allclose(volts, reference.step(t, *state), rtol=RTOL, atol=1e-12)
+        d.qfrc_applied[:] = ETA * N * K * (volts - K * N * d.qvel) / R  # the steady current
+        mujoco.mj_step(m, d, nstep=5)
+    assert_same(controller.signals(), reference.signals())
+    if mode == "cascade":  # the loop really closes: 1 mm after a 64 mm move
+        assert np.linalg.norm(controller.signals()["e_x"][-1, :3]) < 1e-3
