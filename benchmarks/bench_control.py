@@ -111,7 +111,8 @@ def main() -> int:
               for k, tk in enumerate(run.t[:: max(1, len(run.t) // 500)])]
     bench = ml.CascadeController(spec, move, task="position", model=model)
     per_sample = statistics.median(timeit.repeat(
-        lambda: [bench.step(*s) for s in states], number=1, repeat=7)) / len(states) * 1e6
+        lambda: [bench.step(t, q, qd, dP=dP) for t, q, qd, dP in states], number=1,
+        repeat=7)) / len(states) * 1e6
     rows = []
     for kind in ("cpu", "wall"):
         loop, idle, replay = med(loops, kind), med(idles, kind), med(plants, kind)

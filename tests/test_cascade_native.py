@@ -49,13 +49,14 @@ CASES = {
 State = tuple[float, np.ndarray, np.ndarray, np.ndarray]
 
 
-def controller_for(name: str, mode: str) -> tuple[CascadeController, list[float], int]:
+def controller_for(name: str, mode: str, **settings: object
+                   ) -> tuple[CascadeController, list[float], int]:
     source, q0, offset, duration, samples = CASES[name]
     spec = ml.resolve_spec(str(source))
     model = ml.AnalyticModel(spec)
     start = Pose.from_matrix(model.fk(np.array(q0)))
     move = MinJerkMove(start, start.translated(offset), duration, t0=0.05)
-    return CascadeController(spec, move, model=model, mode=mode), q0, samples
+    return CascadeController(spec, move, model=model, mode=mode, **settings), q0, samples
 
 
 def held_against_gravity(controller: CascadeController, q0: list[float]
@@ -134,6 +135,29 @@ def test_the_native_closed_loop_equals_the_frozen_python_cascade(name: str, mode
         assert saturated.sum() > samples / 2
     if name == "planar2":  # near the stretched arm's singularity the least squares damp
         assert np.count_nonzero(reference.lam2) > samples / 2
+
+
+SETTINGS = {
+    "filtered derivative, unweighted": {"derivative_filter": 0.02, "capacity_weighting": False},
+    "no feed-forward, no null-space damping": {"coulomb_feedforward": False, "null_damping": 0.0},
+    "pressure integral and speed term": {
+        "pressure": ml.spec.PressureGains(integral=20.0, speed_gain=0.7, rate_filter=0.0)},
+    "damped everywhere": {"dls_threshold": 2.0, "dls_damping": 0.3, "valve_min_root": 0.3},
+    "joint PID without integrator": {"pid_only": ml.spec.JointPIDGains(ki=0.0)},
+}
+
+
+@pytest.mark.parametrize("mode", ["cascade", "pid"])
+@pytest.mark.parametrize("name", ["erector7", "excavator"])
+@pytest.mark.parametrize("what", SETTINGS)
+def test_every_setting_is_computed_as_the_blocks_compute_it(what: str, name: str,
+                                                            mode: str) -> None:
+    controller, q0, _ = controller_for(name, mode, **SETTINGS[what])
+    states = closed_loop(controller, q0, 120)
+    reference = reference_of(controller, states)
+    assert_same(controller.signals(), reference.signals())
+    if what == "damped everywhere":
+        assert all(lam > 0.0 for lam in reference.lam2)
 
 
 @pytest.mark.parametrize("mode", ["cascade", "pid"])
@@ -251,3 +275,37 @@ def test_python_drives_finish_the_compiled_sample(mode: str) -> None:
     assert_same(controller.signals(), reference.signals())
     if mode == "cascade":  # the loop really closes: 1 mm after a 64 mm move
         assert np.linalg.norm(controller.signals()["e_x"][-1, :3]) < 1e-3
+
+
+class PythonOnly:
+    """The controller without its native form: the run loop calls it back in Python."""
+
+    def __init__(self, controller: CascadeController) -> None:
+        self.controller, self.dt = controller, controller.dt
+
+    def __call__(self, t: float, state: object) -> np.ndarray:
+        return self.controller(t, state)
+
+
+def test_simulate_runs_the_native_controller_as_the_python_one() -> None:
+    """ml.simulate runs the cascade inside the plant's C loop; called back in Python instead it
+    gives the same run, bit for bit, and the same log."""
+    inside, q0, _ = controller_for("crane3", "cascade")
+    called, _, _ = controller_for("crane3", "cascade")
+    runs = [ml.simulate(inside.spec, controller=c, duration=0.6, initial={"q": q0, "dP": "gravity"})
+            for c in (inside, PythonOnly(called))]
+    assert len(inside.times) == len(called.times) == 300
+    for name in ("q", "qd", "dP", "ctrl"):
+        np.testing.assert_array_equal(runs[0][name], runs[1][name], err_msg=name)
+    for name, values in called.signals().items():
+        np.testing.assert_array_equal(inside.signals()[name], values, err_msg=name)
+    np.testing.assert_array_equal(runs[0]["tau_d"], inside.signals_at(runs[0].t)["ctrl.tau_d"])
+
+
+def test_a_model_without_compiled_kernels_is_refused_in_one_line() -> None:
+    spec = ml.builtin_spec("planar2")
+    model = ml.AnalyticModel(spec, backend="python", cache=False)
+    move = Hold(Pose.from_matrix(model.fk(np.array([0.3, 1.2]))), 1.0)
+    with pytest.raises(ml.control.errors.ControlError, match="C backend") as caught:
+        CascadeController(spec, move, model=model)
+    assert "\n" not in str(caught.value)

@@ -27,13 +27,14 @@ def test_g1_equals_mj_inverse_plus_viscous_friction(name: str) -> None:
     d = mujoco.MjData(m)
     g1 = InverseDynamics(ml.AnalyticModel(spec))
     fv = np.array([j.friction.viscous for j in spec.joints])
+    np.testing.assert_array_equal(m.dof_damping, fv)
     rng = np.random.default_rng(7)
     for _ in range(5):
         q = np.array([rng.uniform(*(j.limits or (-2.0, 2.0))) for j in spec.joints])
         qd, qdd = rng.normal(size=spec.n), rng.normal(size=spec.n)
         d.qpos[:], d.qvel[:], d.qacc[:] = q, qd, qdd
-        mujoco.mj_inverse(m, d)
-        expected = d.qfrc_inverse + fv * qd
+        mujoco.mj_inverse(m, d)  # the model's joint damping is the viscous friction
+        expected = d.qfrc_inverse
         np.testing.assert_allclose(g1.torque(q, qd, qdd), expected,
                                    rtol=1e-9, atol=1e-9 * np.abs(expected).max())
 

@@ -20,6 +20,7 @@ class MujocoPlantODE:
         self.coulomb = coulomb
         self.m = ml.build_model(spec)
         self.m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONSTRAINT
+        self.m.dof_damping[:] = 0.0  # the viscous friction is written out in friction() below
         self.d = mujoco.MjData(self.m)
         self.hyd = [i for i, j in enumerate(spec.joints) if j.actuator.type == "hydraulic"]
 

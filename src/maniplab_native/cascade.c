@@ -45,30 +45,31 @@ int ml_cascade_sizes(int* out4) {
 
 /* --- construction ----------------------------------------------------------------------------- */
 
-/* Hands out consecutive pieces of the pool. */
+/* Hands out consecutive pieces of the pool; without a pool (NULL) it only counts them. */
 typedef struct {
-  double* next;
+  double* pool;
+  int used;  /* doubles handed out */
 } carver;
 
 static double* carve(carver* k, int count) {
-  double* out = k->next;
-  k->next += count;
+  double* out = k->pool ? k->pool + k->used : NULL;
+  k->used += count;
   return out;
 }
 
-/* A copy of `count` doubles in the pool, or NULL for NULL. */
+/* A copy of `count` doubles in the pool (NULL for NULL, or while counting). */
 static const double* keep(carver* k, const double* from, int count) {
   if (from == NULL) return NULL;
   double* to = carve(k, count);
-  memcpy(to, from, (size_t)count * sizeof(double));
+  if (to) memcpy(to, from, (size_t)count * sizeof(double));
   return to;
 }
 
-/* Ints are kept as doubles' worth of room (the pool is doubles). */
+/* A copy of `count` ints, in as many doubles as they take. */
 static const int* keep_ints(carver* k, const int* from, int count) {
   int* to = (int*)carve(k, (count * (int)sizeof(int) + (int)sizeof(double) - 1) /
                                (int)sizeof(double));
-  memcpy(to, from, (size_t)count * sizeof(int));
+  if (to) memcpy(to, from, (size_t)count * sizeof(int));
   return to;
 }
 
@@ -81,36 +82,11 @@ static void keep_pid(carver* k, ml_pid_gains* g, int size) {
   g->tracking = g->limited ? keep(k, g->tracking, size) : NULL;
 }
 
-static int any_positive(const double* x, int size) {
-  for (int i = 0; i < size; i++) {
-    if (x[i] > 0.0) return 1;
-  }
-  return 0;
-}
-
-/* Doubles the pool needs (generously: every optional array counted). */
-static int pool_size(const ml_cascade_config* g) {
-  int n = g->n, m = g->rows;
-  int ints = (n * (int)sizeof(int) + (int)sizeof(double) - 1) / (int)sizeof(double);
-  int config = g->nparams + 6 * m + 6 * n           /* params, outer and joint PID gains */
-               + 4 * n                               /* weights, viscous, coulomb, stribeck */
-               + 2 * ints + 9 * n;                   /* drive, orifice, valves' and limits */
-  int state = 2 * m + 2 * n + 3 * n;
-  int scratch = 3 * 6 * n + n + n * n + n + 3 * m + 3 * n + 4 * n + (n > 6 ? n : 6) + 8 * n + 64;
-  return config + state + scratch + ml_dls_scratch(m, n);
-}
-
-ml_cascade* ml_cascade_new(const ml_cascade_config* config) {
+/* The cascade's arrays in `pool` (the config's copied, the states and the scratch); with a NULL
+   pool only the doubles it needs, which the return value always is. */
+static int layout(ml_cascade* c, const ml_cascade_config* config, double* pool) {
   int n = config->n, m = config->rows;
-  if (n < 1 || (m != 3 && m != 6) || config->nparams < 1) return NULL;
-  ml_cascade* c = (ml_cascade*)calloc(1, sizeof(ml_cascade));
-  if (c == NULL) return NULL;
-  c->pool = (double*)calloc((size_t)pool_size(config), sizeof(double));
-  if (c->pool == NULL) {
-    free(c);
-    return NULL;
-  }
-  carver k = {c->pool};
+  carver k = {pool, 0};
   ml_cascade_config* g = &c->cfg;
   *g = *config;
   g->params = keep(&k, g->params, g->nparams);
@@ -149,8 +125,31 @@ ml_cascade* ml_cascade_new(const ml_cascade_config* config) {
   c->u = carve(&k, n > 6 ? n : 6);  /* the outer loop's too (rows <= 6) */
   c->err = carve(&k, n);
   c->rate = carve(&k, n);
-  c->spare_row = carve(&k, 8 * n + 64);
-  ml_dls_init(&c->dls, m, n, carve(&k, ml_dls_scratch(m, n)));
+  c->spare_row = carve(&k, 36 + 4 * n);  /* a sample's row when the log has no room */
+  double* scratch = carve(&k, ml_dls_scratch(m, n));
+  if (scratch) ml_dls_init(&c->dls, m, n, scratch);
+  return k.used;
+}
+
+static int any_positive(const double* x, int size) {
+  for (int i = 0; i < size; i++) {
+    if (x[i] > 0.0) return 1;
+  }
+  return 0;
+}
+
+ml_cascade* ml_cascade_new(const ml_cascade_config* config) {
+  int n = config->n, m = config->rows;
+  if (n < 1 || (m != 3 && m != 6) || config->nparams < 1) return NULL;
+  ml_cascade* c = (ml_cascade*)calloc(1, sizeof(ml_cascade));
+  if (c == NULL) return NULL;
+  c->pool = (double*)calloc((size_t)layout(c, config, NULL), sizeof(double));
+  if (c->pool == NULL) {
+    free(c);
+    return NULL;
+  }
+  layout(c, config, c->pool);
+  const ml_cascade_config* g = &c->cfg;
   for (int j = 0; j < n; j++) {
     c->python_drives += g->drive[j] == ML_DRIVE_PYTHON;
     c->inv_supply[j] = g->drive[j] == ML_DRIVE_VALVE ? 1.0 / g->supply[j] : 0.0;

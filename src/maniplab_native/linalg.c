@@ -112,7 +112,7 @@ void ml_dls_factor(ml_dls* s, const double* J, const double* weights, double dam
   }
 }
 
-void ml_dls_solve(const ml_dls* s, const double* rhs, int cols, double* x) {
+void ml_dls_solve(ml_dls* s, const double* rhs, int cols, double* x) {
   int m = s->m, n = s->n, r = s->r, k = s->k;
   /* A = U S V^T: U (m x k) and V (n x k) are the normalised columns and the rotations, which
      is which depending on whether the Jacobi ran on A or A^T */

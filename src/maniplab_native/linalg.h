@@ -37,7 +37,8 @@ void ml_dls_init(ml_dls* s, int m, int n, double* scratch);
 void ml_dls_factor(ml_dls* s, const double* J, const double* weights, double damping,
                    double threshold);
 
-/* x (n x cols, row-major) for J x ~ rhs (m x cols, row-major), after ml_dls_factor. */
-void ml_dls_solve(const ml_dls* s, const double* rhs, int cols, double* x);
+/* x (n x cols, row-major) for J x ~ rhs (m x cols, row-major), after ml_dls_factor (s->work is
+   its scratch). */
+void ml_dls_solve(ml_dls* s, const double* rhs, int cols, double* x);
 
 #endif

@@ -91,7 +91,7 @@ class RunStruct(ctypes.Structure):
 
 
 _P = c_void_p
-C = Functions({
+_C = Functions({
     "ml_cascade_sizes": (c_int, [POINTER(c_int)]),
     "ml_cascade_new": (c_void_p, [POINTER(Config)]),
     "ml_cascade_free": (None, [_P]),
@@ -107,7 +107,7 @@ C = Functions({
 def check_layout() -> None:
     """Raise when the ctypes mirrors differ in size from the C structures (a stale mirror)."""
     sizes = (c_int * 4)()
-    C().ml_cascade_sizes(sizes)
+    _C().ml_cascade_sizes(sizes)
     mirrors = (PidGains, Config, LogStruct, RunStruct)
     if list(sizes) != [ctypes.sizeof(s) for s in mirrors]:
         raise ControlError(f"maniplab's compiled cascade does not match its ctypes mirrors: "
@@ -214,11 +214,11 @@ class CompiledCascade:
             min_root=float(valves["min_root"]), rate_alpha=float(valves["rate_alpha"]),
             speed_gain=float(valves["speed_gain"]),
             compressibility=int(bool(valves["compressibility"])))
-        address = C().ml_cascade_new(ctypes.byref(config))
+        address = _C().ml_cascade_new(ctypes.byref(config))
         if not address:
             raise ControlError("maniplab's compiled cascade could not be made (out of memory)")
         self.address: int = address
-        self._finalizer = weakref.finalize(self, C().ml_cascade_free, address)
+        self._finalizer = weakref.finalize(self, _C().ml_cascade_free, address)
         # per-sample buffers of the Python path
         self._ref = np.zeros(REF_SIZE)
         self._q, self._qd, self._dP = np.zeros(n), np.zeros(n), np.zeros(n)
@@ -227,7 +227,7 @@ class CompiledCascade:
         self._logstruct = LogStruct()
         self.log: dict[str, np.ndarray] = {}
         self.reserve(64)
-        C().ml_cascade_set_log(address, ctypes.byref(self._logstruct))
+        _C().ml_cascade_set_log(address, ctypes.byref(self._logstruct))
 
     @property
     def count(self) -> int:
@@ -253,7 +253,7 @@ class CompiledCascade:
 
     def reset(self) -> None:
         """Clear the loops' states and the log (``ml_cascade_reset``)."""
-        C().ml_cascade_reset(self.address)
+        _C().ml_cascade_reset(self.address)
 
     def sample(self, t: float, ref: Any, q: np.ndarray, qd: np.ndarray,
                dP: np.ndarray | None) -> np.ndarray:
@@ -265,14 +265,14 @@ class CompiledCascade:
         self._qd[:] = qd
         self._dP[:] = 0.0 if dP is None else dP
         cmd = np.empty(self.n)
-        C().ml_cascade_sample(self.address, t, *self._addresses, cmd.ctypes.data,
+        _C().ml_cascade_sample(self.address, t, *self._addresses, cmd.ctypes.data,
                               self.aux.ctypes.data)
         return cmd
 
     def commit(self, cmd: np.ndarray) -> None:
         """Finish the sample with the whole command (n,): saturation flag and log row."""
         cmd = np.ascontiguousarray(cmd, dtype=float)
-        C().ml_cascade_commit(self.address, cmd.ctypes.data)
+        _C().ml_cascade_commit(self.address, cmd.ctypes.data)
 
     def rows_of(self, name: str) -> np.ndarray:
         """The logged rows of one buffer (a copy), (count, width) or (count,) for ``t``."""
@@ -305,7 +305,7 @@ class NativeController:
         self._run = RunStruct(cascade=cascade.address, count=len(self.times), next=0,
                               times=int(self.times.ctypes.data),
                               refs=int(self._refs.ctypes.data), status=0)
-        self.function: int = C.address("ml_cascade_control")
+        self.function: int = _C.address("ml_cascade_control")
         self.context: int = ctypes.addressof(self._run)
 
     @property

@@ -13,8 +13,7 @@ import ctypes
 from ctypes import POINTER, c_double, c_int, c_void_p
 from typing import Any
 
-import maniplab_native
-from maniplab.errors import ModelError
+from maniplab.clib import Functions
 
 # plant.h: statuses
 OK, PAUSED, UNSTABLE_MOTION, STATE_BOUND, BAD_COMMAND, CONTROLLER_ERROR, CALLBACK_ERROR = range(7)
@@ -75,7 +74,7 @@ _SIGNATURES: dict[str, tuple[Any, list[Any]]] = {
     "ml_plant_error": (Error, [c_void_p]),
 }
 
-_LIB: list[ctypes.CDLL] = []
+_FUNCTIONS = Functions(_SIGNATURES)
 
 
 def library() -> ctypes.CDLL:
@@ -84,16 +83,7 @@ def library() -> ctypes.CDLL:
     Raises:
         ModelError: the library could not be built (no C compiler...), one line.
     """
-    if not _LIB:
-        try:
-            lib = maniplab_native.library()
-        except maniplab_native.NativeBuildError as exc:
-            raise ModelError(str(exc)) from None
-        for name, (restype, argtypes) in _SIGNATURES.items():
-            fn = getattr(lib, name)
-            fn.restype, fn.argtypes = restype, argtypes
-        _LIB.append(lib)
-    return _LIB[0]
+    return _FUNCTIONS()
 
 
 def doubles(values: Any) -> Any:

@@ -232,6 +232,7 @@ class _Loop:
                         "limit": np.zeros((rows, n)), "ee_pos": np.zeros((rows, 3))}
         self.held = np.zeros(n)
         self.error: BaseException | None = None
+        self._native: Any = None
         function, context = self._controller(controller, steps, period)
         b = self.buffers
         self.run = native.RunStruct(
@@ -285,8 +286,9 @@ class _Loop:
             if self.error is not None:
                 raise self.error
             error = self.plant._c.error()
-            raise InputError(f"controller at t = {error.time:.6g} s: its command is not finite "
-                             "(NaN or infinity)")
+            message = getattr(self._native, "message", lambda: None)()
+            raise InputError(f"controller at t = {error.time:.6g} s: "
+                             f"{message or 'its command is not finite (NaN or infinity)'}")
         if status == native.BAD_COMMAND:
             k = self.run.k
             u = self.held + (self.table[k] if self.table is not None else 0.0)

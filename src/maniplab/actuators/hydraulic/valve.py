@@ -52,7 +52,7 @@ class CylinderLaw(ctypes.Structure):
 _D = c_double
 _P = c_void_p
 _CYLINDER = ctypes.POINTER(CylinderLaw)
-C = Functions({
+_C = Functions({
     "ml_valve_root": (_D, [_D, _D, _D, c_int]),
     "ml_valve_flow": (_D, [_D, _D, _D, _D, c_int]),
     "ml_valve_slopes": (None, [_D, _D, _D, _D, c_int, _P]),
@@ -70,12 +70,12 @@ C = Functions({
 def root(current: float, dP: float, inv_supply: float, orifice: bool) -> float:
     """The share of the no-load flow the valve passes at ΔP: sqrt(max(0, 1 - s ΔP/Ps)) with
     s = sign(i_v) (orifice law) or s = sign(ΔP) (paper law); ``inv_supply`` = 1/Ps, 1/Pa."""
-    return float(C().ml_valve_root(current, dP, inv_supply, bool(orifice)))
+    return float(_C().ml_valve_root(current, dP, inv_supply, bool(orifice)))
 
 
 def flow(current: float, dP: float, gain: float, inv_supply: float, orifice: bool) -> float:
     """Steady valve flow Q* = i_v C root, m³/s (see :func:`root`)."""
-    return float(C().ml_valve_flow(current, dP, gain, inv_supply, bool(orifice)))
+    return float(_C().ml_valve_flow(current, dP, gain, inv_supply, bool(orifice)))
 
 
 def slopes(current: float, dP: float, gain: float, inv_supply: float,
@@ -87,7 +87,7 @@ def slopes(current: float, dP: float, gain: float, inv_supply: float,
     Where the root vanishes both are 0.
     """
     out = (c_double * 2)()
-    C().ml_valve_slopes(current, dP, gain, inv_supply, bool(orifice), ctypes.addressof(out))
+    _C().ml_valve_slopes(current, dP, gain, inv_supply, bool(orifice), ctypes.addressof(out))
     return out[0], out[1]
 
 
@@ -98,7 +98,7 @@ def relief_gain(gain: float, current_limit: float, relief_pressure: float) -> fl
 
 def relief_flow(dP: float, relief_pressure: float, relief_gain_: float) -> float:
     """Q_r = K_r (|ΔP| - p_r) sign(ΔP) above the setting, else 0, m³/s (out of the high side)."""
-    return float(C().ml_relief_flow(dP, relief_pressure, relief_gain_))
+    return float(_C().ml_relief_flow(dP, relief_pressure, relief_gain_))
 
 
 def _flat(values: Any, dtype: Any = np.float64) -> np.ndarray:
@@ -121,7 +121,7 @@ def valve_flow(current: ArrayLike, dP: ArrayLike, gain: ArrayLike, supply_pressu
     i, p, c, ps = (_flat(a) for a in arrays[:4])
     law = _flags(arrays[4])
     out = np.empty(i.size)
-    C().ml_valve_flows(i.size, i.ctypes.data, p.ctypes.data, c.ctypes.data, ps.ctypes.data,
+    _C().ml_valve_flows(i.size, i.ctypes.data, p.ctypes.data, c.ctypes.data, ps.ctypes.data,
                        law.ctypes.data, out.ctypes.data)
     return out.reshape(shape)
 
@@ -155,7 +155,7 @@ def valve_current(flow_: ArrayLike, dP: ArrayLike, gain: ArrayLike, supply_press
     q, p, c, ps, limit = (_flat(a) for a in arrays[:5])
     law = _flags(arrays[5])
     out = np.empty(q.size)
-    C().ml_valve_currents(q.size, q.ctypes.data, p.ctypes.data, c.ctypes.data, ps.ctypes.data,
+    _C().ml_valve_currents(q.size, q.ctypes.data, p.ctypes.data, c.ctypes.data, ps.ctypes.data,
                           limit.ctypes.data, float(min_root), law.ctypes.data, out.ctypes.data)
     return out.reshape(shape)
 
@@ -184,7 +184,7 @@ def cylinder_rates(law: CylinderLaw, dP: float, Q: float, u: float, v: float) ->
         v: joint speed, rad/s or m/s.
     """
     out = np.empty(2)
-    C().ml_cylinder_rates(ctypes.byref(law), dP, Q, u, v, out.ctypes.data)
+    _C().ml_cylinder_rates(ctypes.byref(law), dP, Q, u, v, out.ctypes.data)
     return out
 
 
@@ -193,7 +193,7 @@ def cylinder_partials(law: CylinderLaw, dP: float, u: float) -> np.ndarray:
     setting), shape (6,): ∂(dΔP/dt)/∂ΔP, ∂(dΔP/dt)/∂Q, ∂(dQ/dt)/∂ΔP, ∂(dQ/dt)/∂Q, ∂(dQ/dt)/∂u,
     ∂(dΔP/dt)/∂v (the others are 0)."""
     out = np.empty(6)
-    C().ml_cylinder_partials(ctypes.byref(law), dP, u, out.ctypes.data)
+    _C().ml_cylinder_partials(ctypes.byref(law), dP, u, out.ctypes.data)
     return out
 
 
@@ -201,5 +201,5 @@ def cylinder_steady(law: CylinderLaw, force: float, v: float) -> tuple[float, fl
     """(ΔP, Q, i_v) that hold ``force`` (N or N·m) at joint speed v: ΔP = f/A,
     Q = A v + Le ΔP + Q_r, i_v the law inverted exactly (±inf where no current passes Q)."""
     out = np.empty(3)
-    C().ml_cylinder_steady(ctypes.byref(law), force, v, out.ctypes.data)
+    _C().ml_cylinder_steady(ctypes.byref(law), force, v, out.ctypes.data)
     return float(out[0]), float(out[1]), float(out[2])
