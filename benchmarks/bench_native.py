@@ -60,9 +60,13 @@ def no_friction(spec: ml.ManipulatorSpec) -> ml.ManipulatorSpec:
 
 
 def inert() -> mujoco.MjModel:
-    """The erector with the cylinders as plain MuJoCo actuators with two user activations and no
-    callbacks (MuJoCo leaves them alone): the floor."""
+    """The floor: the erector as the plant steps it (MuJoCo's limits, dry friction and contacts
+    off), with the cylinders as plain MuJoCo actuators with two user activations and no
+    callbacks (MuJoCo leaves them alone)."""
     s = mujoco.MjSpec.from_string(ml.to_mjcf("erector"))
+    s.option.disableflags |= (mujoco.mjtDisableBit.mjDSBL_LIMIT
+                              | mujoco.mjtDisableBit.mjDSBL_FRICTIONLOSS
+                              | mujoco.mjtDisableBit.mjDSBL_CONTACT)
     for act in s.actuators:
         act.plugin.active = False
         act.plugin.plugin_name = ""

@@ -1,18 +1,21 @@
 """Speed of the plant: the erector's real-time factor; hybrid friction vs LuGre, matched accuracy.
 
-Run: ``python benchmarks/bench_plant.py`` (about three minutes; ``--quick`` skips the slowest
-LuGre runs). Prints Markdown tables for the README. Times are medians of repeated runs, as CPU
-time of this process (``time.process_time``) and wall time; on a shared machine the CPU time is
-the steadier figure, and the ratios (measured in one run) are what to compare.
+Run: ``python benchmarks/bench_plant.py`` (about a minute; ``--quick`` takes fewer repeats).
+Prints Markdown tables for the benchmark page. Times are medians of repeated runs, as CPU time of
+this process (``time.process_time``) and wall time; on a shared machine the CPU time is the
+steadier figure, and the ratios (measured in one run) are what to compare.
 
 1. **Erector, 10 s open loop** (6 hydraulic joints, hybrid friction, limits; valve steps, sines
-   and ramps that make joints stick, slip and reach limits): the plant's real-time factor on both
-   routes, against MuJoCo's bare RK4 step of the same arm.
+   and ramps that make joints stick, slip and reach limits): the plant's real-time factor against
+   MuJoCo's RK4 ``mj_step`` of the plant's own model (the cylinders' engine plugins, MuJoCo's
+   limits and dry friction off, as in the plant) and of the exported MJCF (with MuJoCo's soft
+   limits and ``frictionloss``).
 2. **Stick-slip** (Canudas de Wit 1995: 1 kg block pulled through a spring k = 2 N/m at
    0.1 m/s): for each friction model, the largest step (from a ladder) whose position stays within
    a tolerance (``TOLERANCES``) of that model's own reference over 20 s (LuGre: Radau; hybrid: an
    event-driven solve_ivp of the hybrid automaton), and the time the run takes at that step. The
-   spring is MuJoCo joint stiffness plus a ramped force, so the friction is what differs.
+   spring is MuJoCo joint stiffness plus a ramped force, so the friction is what differs. LuGre is
+   maniplab's engine plugin ``maniplab.lugre`` (z advanced exactly after each step).
 """
 
 from __future__ import annotations
@@ -21,6 +24,7 @@ import argparse
 import math
 import statistics
 import time
+from collections.abc import Callable
 
 import mujoco
 import numpy as np
@@ -61,37 +65,43 @@ def timed(fn, repeats: int) -> tuple[float, float]:
 
 def erector(repeats: int) -> list[str]:
     rows = []
-    model = ml.build_model("erector")
-    data = mujoco.MjData(model)
-    bare = timed(lambda: [mujoco.mj_step(model, data) for _ in range(10_000)], repeats)
-    rows.append(("MuJoCo mj_step alone (RK4, 10,000 steps)", bare, "the floor"))
-    modes = None
-    for route, n in (("native", repeats), ("callbacks", max(1, repeats // 2))):
-        plant = ml.Plant("erector", route=route)
-        plant.balance_pressures()
-        start = plant.save()
+    plant = ml.Plant("erector")
+    ctrl = np.zeros(6)
 
-        def run(plant=plant, start=start):
-            plant.restore(start)
-            return ml.simulate(plant, inputs=ERECTOR_INPUTS, duration=10.0)
+    def bare(model: mujoco.MjModel) -> Callable[[], None]:
+        data = mujoco.MjData(model)
+        data.ctrl[:] = ctrl
+        return lambda: [mujoco.mj_step(model, data) for _ in range(10_000)]
 
-        result = run()
-        if route == "native":
-            modes = [sorted({ml.friction.FrictionMode(m).name for m in result["mode"][:, j]})
-                     for j in range(6)]
-        t = timed(run, n)
-        rows.append((f"plant, {route} route (10 s simulated)", t,
-                     (f"{10.0 / t[0]:.1f}x real time (CPU), {10.0 / t[1]:.1f}x (wall); "
-                      f"{t[0] / bare[0]:.2f}x bare mj_step")))
+    floor = timed(bare(plant.model), repeats)
+    rows.append(("MuJoCo mj_step of the plant's model alone (RK4, 10,000 steps)", floor,
+                 "the floor"))
+    exported = timed(bare(ml.build_model("erector")), repeats)
+    rows.append(("MuJoCo mj_step of the exported MJCF (soft limits, frictionloss)", exported,
+                 f"{exported[0] / floor[0]:.2f}x the floor"))
+    plant.balance_pressures()
+    start = plant.save()
+
+    def run() -> ml.Run:
+        plant.restore(start)
+        return ml.simulate(plant, inputs=ERECTOR_INPUTS, duration=10.0)
+
+    result = run()
+    modes = [sorted({ml.friction.FrictionMode(m).name for m in result["mode"][:, j]})
+             for j in range(6)]
+    t = timed(run, repeats)
+    rows.append(("plant, ml.simulate (10 s simulated)", t,
+                 (f"{10.0 / t[0]:.0f}x real time (CPU), {10.0 / t[1]:.0f}x (wall); "
+                  f"{t[0] / floor[0]:.2f}x the floor")))
     build = timed(lambda: ml.simulate("erector", inputs=ERECTOR_INPUTS, duration=10.0,
-                                      initial={"dP": "gravity"}), max(1, repeats // 2))
+                                      initial={"dP": "gravity"}), repeats)
     rows.append(("ml.simulate end to end (plant built, 10 s)", build,
-                 f"{10.0 / build[0]:.1f}x real time (CPU), {10.0 / build[1]:.1f}x (wall)"))
+                 f"{10.0 / build[0]:.0f}x real time (CPU), {10.0 / build[1]:.0f}x (wall)"))
     lines = ["| what | CPU | wall | note |", "|---|---|---|---|"]
     lines += [f"| {name} | {c:.3f} s | {w:.3f} s | {note} |" for name, (c, w), note in rows]
     lines.append("")
     lines.append("modes visited per joint: " + "; ".join(
-        f"q{j + 1} {'/'.join(m)}" for j, m in enumerate(modes or [])))
+        f"q{j + 1} {'/'.join(m)}" for j, m in enumerate(modes)))
     return lines
 
 
@@ -161,9 +171,11 @@ def hybrid_reference():
     return position
 
 
-def stick_slip_run(model: str, route: str, dt: float):
-    plant = ml.Plant(block(model), dt=dt, route=route)
-    plant.model.jnt_stiffness[0] = K  # the spring: -k x in MuJoCo, +k VP t as the input
+def stick_slip_run(model: str, dt: float) -> Callable[[], ml.Run]:
+    plant = ml.Plant(block(model), dt=dt)
+    # the spring: -k x as MuJoCo's joint stiffness, +k VP t as the input; set on the model the
+    # plant steps (its working copy: ``plant.model`` is the constant description of the arm)
+    plant._model.jnt_stiffness[0] = K
     start = plant.save()
 
     def run() -> ml.Run:
@@ -174,14 +186,13 @@ def stick_slip_run(model: str, route: str, dt: float):
     return run
 
 
-def errors(model: str, route: str, reference, ladder,
-           target: float) -> dict[float, float]:
+def errors(model: str, reference, ladder, target: float) -> dict[float, float]:
     """Max position error of the run at each dt of the ladder (inf when unstable), going down
     the ladder until the error is within ``target``."""
     out: dict[float, float] = {}
     for dt in ladder:
         try:
-            result = stick_slip_run(model, route, dt)()
+            result = stick_slip_run(model, dt)()
             out[dt] = float(np.max(np.abs(result.q[:, 0] - reference(result.t))))
         except ml.InstabilityError:
             out[dt] = math.inf
@@ -190,21 +201,18 @@ def errors(model: str, route: str, reference, ladder,
     return out
 
 
-def stick_slip(repeats: int, quick: bool) -> list[str]:
+def stick_slip(repeats: int) -> list[str]:
     lugre, hybrid = lugre_reference(), hybrid_reference()
-    cases = [("hybrid automaton", "hybrid", "native", hybrid, LADDER),
-             ("LuGre, exponential bristle update (native route)", "lugre", "native", lugre,
-              LADDER),
-             ("LuGre, z integrated by MuJoCo's RK4 (callback route)", "lugre", "callbacks",
-              lugre, LADDER[:8] if quick else LADDER)]
-    found = {name: errors(model, route, ref, ladder, min(TOLERANCES))
-             for name, model, route, ref, ladder in cases}
+    cases = [("hybrid automaton", "hybrid", hybrid, LADDER),
+             ("LuGre (engine plugin, exact bristle update)", "lugre", lugre, LADDER)]
+    found = {name: errors(model, ref, ladder, min(TOLERANCES))
+             for name, model, ref, ladder in cases}
     lines = [("| tolerance | friction model | largest dt within it | error | CPU | wall "
               "| CPU / hybrid's |"), "|---|---|---|---|---|---|---|"]
     timings: dict[tuple[str, float], tuple[float, float]] = {}
     for tolerance in TOLERANCES:
         base = None
-        for name, model, route, _, _ in cases:
+        for name, model, _, _ in cases:
             good = [dt for dt, error in found[name].items() if error <= tolerance]
             if not good:
                 lines.append(f"| {tolerance * 1e3:g} mm | {name} | none down to "
@@ -212,8 +220,7 @@ def stick_slip(repeats: int, quick: bool) -> list[str]:
                 continue
             dt = max(good)
             if (name, dt) not in timings:
-                n = repeats if route == "native" else 1
-                timings[name, dt] = timed(stick_slip_run(model, route, dt), n)
+                timings[name, dt] = timed(stick_slip_run(model, dt), repeats)
             cpu, wall = timings[name, dt]
             base = base or cpu
             lines.append(f"| {tolerance * 1e3:g} mm | {name} | {dt:g} s | "
@@ -225,13 +232,15 @@ def stick_slip(repeats: int, quick: bool) -> list[str]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=5)
-    parser.add_argument("--quick", action="store_true", help="skip LuGre-RK4 below 1e-4 s")
+    parser.add_argument("--quick", action="store_true", help="one repeat of each timing")
     args = parser.parse_args()
+    if args.quick:
+        args.repeats = 1
     print(f"maniplab {ml.__version__}, MuJoCo {mujoco.__version__}\n")
     print("### Erector, 10 s open loop\n")
     print("\n".join(erector(args.repeats)))
     print("\n### Stick-slip, hybrid vs LuGre at matched accuracy\n")
-    print("\n".join(stick_slip(max(1, args.repeats // 2), args.quick)))
+    print("\n".join(stick_slip(args.repeats)))
 
 
 if __name__ == "__main__":

@@ -21,6 +21,7 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 import maniplab as ml
+from maniplab.mjcf_gen.builder import MASS_BOUND
 from maniplab.model import AnalyticModel
 
 REL, ABS = 1e-9, 1e-10
@@ -380,11 +381,19 @@ def test_random_arms_match_mujoco(spec: ml.ManipulatorSpec, seed: int) -> None:
     qdd, hold = am.constrained_dynamics(q, qd, tau, stuck)
     qdd_ref, hold_ref = _kkt_reference(ref, q, qd, tau, stuck)
     # A linear solve amplifies the inputs' difference by the condition number of the free block
-    # (perturbation bound |dx|/|x| <= cond(A) (|dA|/|A| + |db|/|b|)); M and the bias of the two
-    # sides agree to ~1e-12 relative, so the bound is 1e-12 cond, and never tighter than 1e-9.
+    # (perturbation bound |dx|/|x| <= cond(A) (|dA|/|A| + |db|/|b|)). M and the bias of the two
+    # sides agree to ~1e-12 relative, except that MuJoCo lifts each body's mass and principal
+    # moments to boundmass/boundinertia (an absolute 1e-12 per body, moved by up to the arm's
+    # reach): on a light arm that is a larger relative change of the free block. The bound is
+    # cond times the larger of the two, and never tighter than 1e-9.
     free = [i for i in range(spec.n) if i not in stuck]
-    amplification = np.linalg.cond(M[np.ix_(free, free)]) if free else 1.0
-    rel = REL * max(1.0, amplification / 1e3)
+    block = M[np.ix_(free, free)]
+    amplification = np.linalg.cond(block) if free else 1.0
+    reach = sum(j.body.length for j in spec.joints if j.body) + np.linalg.norm(
+        spec.end_effector.offset)
+    lifted = (spec.n + 1) * MASS_BOUND * (1.0 + reach**2) / np.linalg.eigvalsh(block)[0] \
+        if free else 0.0
+    rel = max(REL * max(1.0, amplification / 1e3), amplification * lifted)
     assert_close(qdd, qdd_ref, "constrained qdd", rel=rel)
     assert_close(hold, hold_ref, "hold", rel=rel)
 

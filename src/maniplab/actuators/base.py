@@ -232,8 +232,9 @@ class ActuatorPlugin(abc.ABC):
 
     def rates(self, native: bool = False) -> dict[str, float]:
         """The rates of the actuator's own dynamics, 1/s, by what they are (e.g. a valve's lag
-        1/τ), that the step must resolve: when MuJoCo integrates the states, or (``native``) those
-        the class's native form does not advance exactly."""
+        1/τ), that the step must resolve: all of them when MuJoCo integrates the states through
+        the callbacks, or (``native``, an actuator with an engine plugin) those the plugin does not
+        advance exactly (the hydraulic plugin takes its relief valve's stiff regime exactly)."""
         return {}
 
     def bounds(self) -> list[Bound]:

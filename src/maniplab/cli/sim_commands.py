@@ -62,7 +62,8 @@ def _add_sweep(sub: argparse._SubParsersAction) -> None:
                    help="values of one parameter, repeatable (the grid is every combination), "
                         "e.g. end_effector.mass=3000,4000,5000")
     p.add_argument("--processes", type=int, metavar="N",
-                   help="local worker processes (default: one per core)")
+                   help="local workers (default: one per core): threads when no variant needs "
+                        "Python while it steps, else processes")
     p.add_argument("-o", "--output", type=Path, required=True, metavar="DIR",
                    help="folder for the runs")
     p.set_defaults(func=_cmd_sweep)

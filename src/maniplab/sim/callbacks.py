@@ -50,11 +50,11 @@ class _Entry:
 
 
 class PluginCallbacks:
-    """The act_dyn and act_bias callbacks of one plant's callback-route actuators.
+    """The act_dyn and act_bias callbacks of one plant's Python actuators.
 
     Args:
         model, data: the plant's.
-        actuators: (actuator id, model, joint index) for each callback-route actuator.
+        actuators: (actuator id, model, joint index) for each Python actuator.
     """
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData,
