@@ -14,7 +14,7 @@ import maniplab as ml
 from maniplab.actuators.hydraulic import HydraulicCylinder
 from maniplab.actuators.plugin_mjcf import EnginePlugin, activate_plugins, set_plugin
 from maniplab.actuators.torque import TorqueSource
-from maniplab.numerics import phi1
+from maniplab.friction import steady_force
 
 CYLINDER = ml.HydraulicActuator(type="hydraulic", area=2e-3, volume=1e-3, valve_gain=1e-3,
                                 supply_pressure=20e6, bulk_modulus=1.4e9, leakage=1e-11,
@@ -34,12 +34,6 @@ def test_cylinder_is_eq_4() -> None:
     assert model.force(np.array([dP, Q]), u, 0.0, v) == pytest.approx(2e-3 * dP)
     # beyond the supply pressure the valve passes nothing (the root's argument is clipped)
     assert model.derivatives(np.array([30e6, 0.0]), u, 0.0, 0.0)[1] == 0.0
-
-
-def test_phi1() -> None:
-    for x in (0.0, 1e-14, 1e-6, 0.3, 40.0):
-        expected = 1.0 if x == 0.0 else -math.expm1(-x) / x
-        assert phi1(x) == pytest.approx(expected, rel=1e-12)
 
 
 def one_cylinder_model(params: ml.HydraulicActuator, mass: float = 1.0) -> mujoco.MjModel:
@@ -139,6 +133,14 @@ def test_lugre_engine_plugin_is_canudas_de_wit(z: float, v: float) -> None:
 
     zdot = v - 1e5 * abs(v) * z / g(v)
     assert data.act_dot[0] == 0.0  # z moves only between steps, exactly
+    if v != 0.0:  # in steady sliding (dz/dt = 0) the bristles give the Stribeck curve (+ σ2 v)
+        steady = mujoco.MjData(model)
+        steady.act[0], steady.qvel[0] = g(v) * math.copysign(1.0, v) / 1e5, v
+        mujoco.mj_forward(model, steady)
+        friction = ml.Friction(model="lugre", coulomb=1.0, static=0.5, stribeck_velocity=1e-3,
+                               viscous=0.4)
+        assert -steady.actuator_force[0] + 0.4 * v == pytest.approx(
+            float(steady_force(friction, np.array(v))), rel=1e-12)
     assert data.actuator_force[0] == pytest.approx(-(1e5 * z + 316.0 * zdot), rel=1e-12)
     h = model.opt.timestep
     mujoco.mj_step(model, data)

@@ -18,11 +18,6 @@ void ml_valve_slopes(double current, double dP, double gain, double inv_supply, 
   ml_valve_slopes_law(current, dP, gain, inv_supply, orifice, slopes, slopes + 1);
 }
 
-double ml_valve_current(double flow, double dP, double gain, double inv_supply, double limit,
-                        double min_root, int orifice) {
-  return ml_valve_current_law(flow, dP, gain, inv_supply, limit, min_root, orifice);
-}
-
 double ml_relief_flow(double dP, double relief, double relief_gain) {
   return ml_relief_flow_law(dP, relief, relief_gain);
 }

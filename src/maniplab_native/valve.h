@@ -50,9 +50,7 @@ static inline double ml_valve_root_law(double current, double dP, double inv_sup
 /* Steady valve flow Q* = i_v C root, m^3/s; exactly 0 where the root vanishes. */
 static inline double ml_valve_flow_law(double current, double dP, double gain, double inv_supply,
                                        int orifice) {
-  double drop = orifice ? (current >= 0.0 ? dP : -dP) : fabs(dP);
-  double r = 1.0 - drop * inv_supply;
-  return r > 0.0 ? current * gain * sqrt(r) : 0.0;
+  return current * gain * ml_valve_root_law(current, dP, inv_supply, orifice);
 }
 
 /* The slopes (dQ* / di_v, dQ* / d(dP)). At i_v = 0 the orifice law's flow has a kink under load (the drop

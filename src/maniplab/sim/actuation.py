@@ -85,7 +85,7 @@ class Actuation:
         text = a.check_state(np.asarray(act[start:start + len(a.states)]))
         if text is not None or adr < 0:
             return text or f"the states of {a.label()} left their range"
-        bound = next(lim for jj, i, lim in self.bounds if i == adr)
+        bound = next(lim for _, i, lim in self.bounds if i == adr)
         return f"{a.states[adr - start]} = {act[adr]:.4g} is beyond ±{bound:.4g}"
 
     def first_problem(self, act: np.ndarray) -> int:

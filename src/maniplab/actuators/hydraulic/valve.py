@@ -56,7 +56,6 @@ _C = Functions({
     "ml_valve_root": (_D, [_D, _D, _D, c_int]),
     "ml_valve_flow": (_D, [_D, _D, _D, _D, c_int]),
     "ml_valve_slopes": (None, [_D, _D, _D, _D, c_int, _P]),
-    "ml_valve_current": (_D, [_D, _D, _D, _D, _D, _D, c_int]),
     "ml_relief_flow": (_D, [_D, _D, _D]),
     "ml_valve_flows": (None, [c_int, _P, _P, _P, _P, _P, _P]),
     "ml_valve_currents": (None, [c_int, _P, _P, _P, _P, _P, _D, _P, _P]),
