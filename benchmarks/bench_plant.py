@@ -42,7 +42,7 @@ ERECTOR_INPUTS = {
     "q6": SIGNALS.ramp(0.1, t0=1.0, t1=6.0),
 }
 
-# the stick-slip case (REFERENCES.md, Canudas de Wit 1995 Table I)
+# the stick-slip case (Canudas de Wit et al. 1995, Table I)
 SIGMA0, SIGMA1, SIGMA2 = 1e5, math.sqrt(1e5), 0.4
 FC, FS, VS, MASS, K, VP, T_END = 1.0, 1.5, 1e-3, 1.0, 2.0, 0.1, 20.0
 STICK_VELOCITY = 1e-3

@@ -19,7 +19,8 @@ import maniplab as ml
 ARTEFACTS = [
     "erector.xml", "model/erector_model.md", "model/erector_model.py", "open_loop_step.png",
     "open_loop_impulse.png", "open_loop_sine.png", "closed_loop.png", "crossval.png",
-    "closed_loop.mp4", "cascade_vs_pid.mp4", "closed_loop_frame.png", "summary.json",
+    "closed_loop.mp4", "cascade_vs_pid.mp4", "closed_loop_frame.png",
+    "cascade_vs_pid_frame.png", "summary.json",
     "report.html", "runs/closed_loop_cascade.npz", "runs/closed_loop_pid.npz",
 ]
 
@@ -55,8 +56,12 @@ def test_report_embeds_exactly_the_written_figures(demo) -> None:
     written = {p.name: p.read_bytes() for p in out.glob("*.png")}
     assert len(embedded) == len(written)  # every figure once; the video frame as the poster
     assert sorted(embedded) == sorted(written.values())
-    for video in ("closed_loop.mp4", "cascade_vs_pid.mp4"):
-        assert f"href='{video}'" in html
+    for video in ("closed_loop.mp4", "cascade_vs_pid.mp4"):  # each previewed by its last frame
+        assert f"href='{video}'><img src='data:image/png;base64," in html
+        assert f"alt='last frame of {video}'" in html
+    last = iio.imread(out / "cascade_vs_pid.mp4")[-1]
+    poster = iio.imread(out / "cascade_vs_pid_frame.png")
+    assert last.shape == poster.shape and np.abs(last.astype(int) - poster).mean() < 8  # H.264
 
 
 def test_reported_tracking_error_follows_from_the_stored_run(demo) -> None:

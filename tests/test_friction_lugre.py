@@ -13,7 +13,7 @@ from scipy.integrate import solve_ivp
 
 import maniplab as ml
 
-# Table I of the 1995 paper (REFERENCES.md); the static level Fs is coulomb + static
+# Table I of the 1995 paper (Canudas de Wit et al., IEEE TAC 1995); the static level Fs is coulomb + static
 SIGMA0, SIGMA1, SIGMA2 = 1e5, math.sqrt(1e5), 0.4
 FC, FS, VS, MASS = 1.0, 1.5, 1e-3, 1.0
 K, VP, T_END = 2.0, 0.1, 20.0

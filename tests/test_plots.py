@@ -59,3 +59,33 @@ def test_bad_requests_are_clear() -> None:
         compare(runs(), signals=["q"], joints=["q9"])
     with pytest.raises(PlotError, match="unknown figure format"):
         save_figure(compare(runs()), "fig.jpg")
+
+
+def test_the_video_strip_shows_the_figures_units_and_its_labels_minus_signs() -> None:
+    """The strip under a video shows ΔP in MPa as the figures do, and its axis labels fit in the
+    margin: the left-most pixel column stays background (a clipped '-18' would read '18')."""
+    from maniplab.viz.plot_strip import PlotStrip, select
+
+    t = np.linspace(0.0, 1.0, 40)
+    spec = ml.builtin_spec("crane3")
+    dp = np.outer(np.linspace(-1.8e7, 1.56e7, 40), np.ones(spec.n))
+    run = Run(t, {"q": np.zeros((40, spec.n)), "dP": dp}, spec)
+    curves, title = select([run], "dP:luff")
+    assert title == "dP:luff [MPa]"
+    np.testing.assert_allclose(curves[0].y, dp[:, 1] / 1e6)
+    assert select([run], "q")[1] == "q [rad | m]"  # crane3 has rotational and prismatic joints
+    strip = PlotStrip(curves, title, 320, 60, 0.0, 1.0)
+    background = strip.bright[strip.height // 2, strip.left + 2]  # inside the plot, off the curve
+    assert (strip.bright[:, 0] == background).all()
+    assert not (strip.bright[:, 1:strip.left - 3] == background).all()  # the labels are drawn
+
+
+def test_runs_that_agree_stay_visible_on_top_of_each_other() -> None:
+    """Two equal runs (a cross-validation that agrees) draw distinct line styles, so the second
+    does not hide the first."""
+    run = runs()[0]
+    fig = compare([run, run], signals=["q"], joints=["q2"])
+    lines = fig.axes[0].get_lines()
+    np.testing.assert_array_equal(lines[0].get_ydata(), lines[1].get_ydata())
+    assert lines[0].get_linestyle() != lines[1].get_linestyle()
+    assert lines[0].get_color() != lines[1].get_color()

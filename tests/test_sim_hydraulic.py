@@ -29,7 +29,7 @@ def held_piston(**hydraulic: float) -> ml.ManipulatorSpec:
 
 
 def test_pressure_of_a_held_piston_under_constant_flow() -> None:
-    """ΔP(t) = (Q/Le)(1 - exp(-Le E t / V)) (REFERENCES.md), with Q constant: the valve starts at
+    """ΔP(t) = (Q/Le)(1 - exp(-Le E t / V)) (docs/guide/hydraulics.md, "Typical values"), with Q constant: the valve starts at
     its steady flow i_v C and the supply pressure is so high that sqrt(1 - |ΔP|/Ps) = 1."""
     iv, C, Le, E, V = 0.5, 1e-4, 1e-11, 1.4e9, 1e-3
     Q = iv * C

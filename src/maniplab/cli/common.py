@@ -20,6 +20,17 @@ class Parser(argparse.ArgumentParser):
         self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
 
 
+def positive_int(text: str) -> int:
+    """argparse type: an integer of at least 1 (workers, counts)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not an integer") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{value} is not at least 1")
+    return value
+
+
 def spec_argument(parser: argparse.ArgumentParser) -> None:
     """The positional SPEC argument: a spec file or a built-in name."""
     parser.add_argument("spec", metavar="SPEC",

@@ -70,9 +70,20 @@ def operating_point(spec: ManipulatorSpec, q: ArrayLike, qd: ArrayLike | None = 
             raise LinearizeError(f"joint {a.joint.name}: {a.label()} declares no steady state "
                                  "(ActuatorPlugin.steady), so no operating point holds it")
         x, point["u"][j] = a.steady(float(tau[j]), float(q[j]), float(qd[j]))
+        if not np.isfinite(point["u"][j]):
+            raise LinearizeError(_unreachable(a, float(tau[j]), x))
         for name, value in zip(a.states, x):
             point[name][j] = value
     return point
+
+
+def _unreachable(actuator: ActuatorPlugin, force: float, x: np.ndarray) -> str:
+    """Why no command holds ``actuator`` at ``force`` (N or N·m), for the error message."""
+    states = ", ".join(f"{name} = {value:.4g}" for name, value in zip(actuator.states, x))
+    return (f"{actuator.label()}: no command holds the arm at this operating point: it would "
+            f"have to exert {force:.4g} against gravity, Coriolis and friction ({states}), more "
+            "than it can give (a cylinder: a load pressure above its supply pressure); lighten "
+            "the payload, enlarge the area or raise the supply pressure")
 
 
 def _friction(spec: ManipulatorSpec, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

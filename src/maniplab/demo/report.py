@@ -24,8 +24,9 @@ class Section:
         sentence: what was done and what it shows, one or two sentences.
         figures: key figures as (name, value with unit) pairs.
         images: PNG files to embed (their file name is the caption).
-        videos: video files to link (relative to the report), with a poster image if given.
-        poster: a PNG shown for the first video (a frame of it).
+        videos: video files to link (relative to the report).
+        posters: per video, a PNG of its last frame shown as its preview (fewer posters than
+            videos: the rest are plain links).
     """
 
     title: str
@@ -33,7 +34,7 @@ class Section:
     figures: Sequence[tuple[str, str]] = ()
     images: Sequence[Path] = ()
     videos: Sequence[Path] = ()
-    poster: Path | None = None
+    posters: Sequence[Path] = ()
 
 
 _STYLE = """
@@ -74,10 +75,10 @@ def _section(section: Section, folder: Path) -> str:
     parts = [f"<h2>{_e(section.title)}</h2>", f"<p>{_e(section.sentence)}</p>"]
     if section.figures:
         parts.append("<table>" + "".join(_row(k, v) for k, v in section.figures) + "</table>")
-    for video in section.videos:
+    for k, video in enumerate(section.videos):
         link = _e(_relative(video, folder))
-        poster = (f"<img src='{_data_uri(section.poster)}' alt='first frame of {link}'>"
-                  if section.poster and video == section.videos[0] else link)
+        poster = (f"<img src='{_data_uri(section.posters[k])}' alt='last frame of {link}'>"
+                  if k < len(section.posters) else link)
         parts.append(f"<figure><a class='video' href='{link}'>{poster}</a>"
                      f"<figcaption>video: <a href='{link}'>{link}</a></figcaption></figure>")
     for image in section.images:

@@ -13,10 +13,11 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from maniplab.sim.run import UNITS, Run
+from maniplab.sim.run import Run
 from maniplab.viz import palette
 from maniplab.viz.gl import RenderError
 from maniplab.viz.overlay_text import font, font_size
+from maniplab.viz.units import display
 
 _DIM = 0.3  # weight of a curve's colour in its dimmed version (the rest is background)
 _AXES = {"x": 0, "y": 1, "z": 2}
@@ -44,7 +45,8 @@ def select(runs: Sequence[Run], selector: str) -> tuple[list[Curve], str]:
 
     COLUMN is a joint name, a 0-based index, or x, y, z for ``ee_pos``. Without it every column is
     drawn. One run gets a colour per column; several runs get a colour per run
-    (:func:`palette.run_colour`).
+    (:func:`palette.run_colour`). Values are in the unit the figures use
+    (:mod:`maniplab.viz.units`: ΔP in MPa, flows in L/min, forces in kN).
 
     Raises:
         RenderError: a run lacks the signal, or the column is unknown.
@@ -58,10 +60,12 @@ def select(runs: Sequence[Run], selector: str) -> tuple[list[Curve], str]:
         values = np.asarray(run[name], dtype=float).reshape(len(run.t), -1)
         labels = _column_labels(run, values.shape[1], name)
         chosen = range(values.shape[1]) if not column else [_column(column, labels, name)]
+        _, scale, _ = display(name, None)
         for c in chosen:
             colour = palette.link_colour(c) if len(runs) == 1 else palette.run_colour(k)
             label = labels[c] if len(runs) == 1 and len(chosen) > 1 else ""
-            curves.append(Curve(np.asarray(run.t, dtype=float), values[:, c], colour, label))
+            curves.append(Curve(np.asarray(run.t, dtype=float), values[:, c] * scale, colour,
+                                label))
     unit = _unit(runs[0], name, column)
     title = f"{name}:{column}" if column else name
     return curves, f"{title} [{unit}]" if unit else title
@@ -85,11 +89,11 @@ def _column(column: str, labels: list[str], name: str) -> int:
 
 
 def _unit(run: Run, name: str, column: str) -> str:
-    unit = UNITS.get(name, "")
-    if " | " in unit and column in run.spec.joint_names:  # "rad | m": R or P joint
-        rotational, prismatic = unit.split(" | ")
-        return prismatic if run.spec.joint(column).prismatic else rotational
-    return unit
+    """The shown unit: of the chosen joint, or of all of them."""
+    if column in run.spec.joint_names:
+        return display(name, run.spec.joint(column).prismatic)[2]
+    kinds = {joint.prismatic for joint in run.spec.joints}
+    return display(name, kinds.pop() if len(kinds) == 1 else None)[2]
 
 
 class PlotStrip:
@@ -108,9 +112,11 @@ class PlotStrip:
                  t0: float, t1: float) -> None:
         self.width, self.height, self.t0, self.t1 = width, height, t0, t1
         size = font_size(3 * height)
-        self.left, self.right = round(4.5 * size), max(4, width // 100)
-        self.top, self.bottom = round(1.6 * size), max(3, height // 12)
         low, high = _limits(curves)
+        widest = max(font(_small(size)).getlength(f"{v:.3g}") for v in (low, high))
+        self.left = max(round(4.5 * size), round(widest) + 8)  # room for a label's minus sign
+        self.right = max(4, width // 100)
+        self.top, self.bottom = round(1.6 * size), max(3, height // 12)
         self.dim = self._draw(curves, title, low, high, size, _DIM)
         self.bright = self._draw(curves, title, low, high, size, 1.0)
 
@@ -126,7 +132,7 @@ class PlotStrip:
         background = palette.to_uint8(palette.BACKGROUND)
         image = Image.new("RGB", (self.width, self.height), background)
         draw = ImageDraw.Draw(image)
-        face, small = font(size), font(max(8, round(0.85 * size)))
+        face, small = font(size), font(_small(size))
         y0, y1 = self.top, self.height - self.bottom
         grid = tuple(min(255, c + 28) for c in background)
         draw.line((self.left, y0, self.left, y1), fill=grid)
@@ -161,6 +167,11 @@ class PlotStrip:
         out[:, :x] = self.bright[:, :x]
         out[:, x:] = self.dim[:, x:]
         out[self.top:self.height - self.bottom, x] = palette.to_uint8(palette.TEXT)
+
+
+def _small(size: int) -> int:
+    """The font size of the axis labels and the legend, for a title of ``size``."""
+    return max(8, round(0.85 * size))
 
 
 def _limits(curves: Sequence[Curve]) -> tuple[float, float]:

@@ -20,23 +20,13 @@ from maniplab.errors import ManiplabError
 from maniplab.friction.modes import FrictionMode
 from maniplab.sim import params
 from maniplab.sim.run import Run
+from maniplab.viz.units import display
 
 if TYPE_CHECKING:
     from matplotlib.typing import RcKeyType
 
-#: signal -> (axis label, scale to display unit, unit of R joints, unit of P joints)
-_DISPLAY: dict[str, tuple[str, float, str, str]] = {
-    "q": ("position", 1.0, "rad", "m"),
-    "qd": ("velocity", 1.0, "rad/s", "m/s"),
-    "qdd": ("acceleration", 1.0, "rad/s²", "m/s²"),
-    "tau_act": ("actuator force", 1e-3, "kN·m", "kN"),
-    "tau_fric": ("friction force", 1e-3, "kN·m", "kN"),
-    "dP": ("ΔP", 1e-6, "MPa", "MPa"),
-    "Q": ("oil flow", 6e4, "L/min", "L/min"),
-    "iv": ("valve current", 1.0, "A", "A"),
-    "ctrl": ("command", 1.0, "", ""),
-    "mode": ("friction mode", 1.0, "", ""),
-}
+_DASHES = ("-", "--", ":", "-.")
+"""Line style of the k-th run: runs that agree stay visible on top of each other."""
 _STYLE: dict[RcKeyType, Any] = {
     "font.size": 9, "axes.titlesize": 9, "axes.labelsize": 9, "legend.fontsize": 8,
     "lines.linewidth": 1.3, "axes.grid": True, "grid.alpha": 0.3, "axes.spines.top": False,
@@ -111,14 +101,14 @@ def _active_joints(runs: Sequence[Run], signals: Sequence[str]) -> list[str]:
 
 def _plot_joint(ax, runs: Sequence[Run], labels: Sequence[str], signal: str, j: int) -> None:
     joint = runs[0].spec.joints[j]
-    what, scale, unit_r, unit_p = _DISPLAY.get(signal, (signal, 1.0, "", ""))
+    what, scale, unit = display(signal, joint.prismatic)
     for k, (run, label) in enumerate(zip(runs, labels)):
         if signal not in run:
             raise PlotError(f"run {run.label!r} has no signal {signal!r}; it has {', '.join(run)}")
         values = np.asarray(run[signal], dtype=float)[:, j] * scale
         draw = ax.step if signal == "mode" else ax.plot
-        draw(run.t, values, color=f"C{k}", label=label, **({"where": "post"} if signal == "mode" else {}))
-    unit = unit_p if joint.prismatic else unit_r
+        draw(run.t, values, color=f"C{k}", label=label, linestyle=_DASHES[k % len(_DASHES)],
+             **({"where": "post"} if signal == "mode" else {}))
     ax.set_title(f"{joint.name}: {what}")
     ax.set_xlabel("time [s]")
     ax.set_ylabel(f"{what} [{unit}]" if unit else what)
