@@ -14,6 +14,7 @@
 #include "plant.h"
 
 #include <math.h>
+#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -41,6 +42,7 @@ struct ml_plant {
   int* held;                 /* the joints held in the working model's armature */
   /* the step */
   double *u, *q0, *v0, *act0, *fric, *limit, *q1, *v1;
+  double* bristles;          /* the friction actuators' force at the step's start (LuGre's) */
   double* command;           /* a run's sample command before clipping */
   /* the record of the last step (plant.h: ml_plant_record) */
   double *rq, *rqd, *ract, *ru, *rfric, *rlimit;
@@ -49,8 +51,12 @@ struct ml_plant {
   ml_actuator_fn python_actuator;
   ml_check_fn python_check;
   int callback_failed;
+  int bad_kind, bad_index;   /* the first bad value this step: mjWARN_BADQPOS/QVEL/QACC, or -1 */
   ml_error error;
 };
+
+/* The plant with Python actuators the calling thread steps (see the dispatcher below). */
+static __thread ml_plant* t_plant = NULL;
 
 /* --- memory ------------------------------------------------------------------------------- */
 static double* copy_or_zero(const double* src, int size) {
@@ -63,9 +69,10 @@ static int* new_ints(int size) { return (int*)calloc(size > 0 ? size : 1, sizeof
 
 void ml_plant_free(ml_plant* p) {
   if (!p) return;
+  if (t_plant == p) t_plant = NULL; /* a call left by a MuJoCo error, which does not return */
   double* doubles[] = {p->lower, p->upper, p->cmd_limit, p->coulomb, p->stiction, p->stribeck,
                        p->stick_velocity, p->breakaway, p->slip_acc, p->armature, p->bound_value,
-                       p->direction, p->u, p->command, p->q0, p->v0, p->act0, p->fric, p->limit, p->q1, p->v1,
+                       p->direction, p->u, p->command, p->q0, p->v0, p->act0, p->fric, p->limit, p->q1, p->v1, p->bristles,
                        p->rq, p->rqd, p->ract, p->ru, p->rfric, p->rlimit};
   int* ints[] = {p->can_stick, p->slip, p->sticky, p->limited, p->bound_adr, p->bound_joint,
                  p->modes, p->held};
@@ -82,6 +89,7 @@ ml_plant* ml_plant_new(mjModel* m, mjData* d, const ml_plant_config* c) {
   if (!p) return NULL;
   p->m = m;
   p->d = d;
+  p->bad_kind = -1;
   p->n = n;
   p->substeps = c->substeps;
   p->integrator = m->opt.integrator;
@@ -117,6 +125,7 @@ ml_plant* ml_plant_new(mjModel* m, mjData* d, const ml_plant_config* c) {
   p->limit = copy_or_zero(NULL, n);
   p->q1 = copy_or_zero(NULL, n);
   p->v1 = copy_or_zero(NULL, n);
+  p->bristles = copy_or_zero(NULL, n);
   p->rq = copy_or_zero(NULL, n);
   p->rqd = copy_or_zero(NULL, n);
   p->ract = copy_or_zero(NULL, na);
@@ -124,7 +133,7 @@ ml_plant* ml_plant_new(mjModel* m, mjData* d, const ml_plant_config* c) {
   p->rfric = copy_or_zero(NULL, n);
   p->rlimit = copy_or_zero(NULL, n);
   p->rmode = (signed char*)calloc(n, 1);
-  if (!p->rmode || !p->rlimit || !p->held || !p->bound_value) {
+  if (!p->rmode || !p->rlimit || !p->held || !p->bound_value || !p->bristles) {
     ml_plant_free(p);
     return NULL;
   }
@@ -155,12 +164,24 @@ void ml_plant_set_python(ml_plant* p, ml_actuator_fn actuator, ml_check_fn check
 }
 
 /* --- Python actuators through MuJoCo's callbacks -------------------------------------------- */
-static ml_plant* g_python_plant = NULL;
+/* MuJoCo's mjcb_act_dyn and mjcb_act_bias are process-global. This library installs one
+   dispatcher pair for the process and never removes it: a call is answered by the Python
+   actuators of the plant the calling thread is stepping (set by `enter` for the length of each
+   ml_plant_* call, so plants in several threads need no lock), and any other model is left as
+   MuJoCo leaves it: the callback installed before the dispatcher is called, or, without one (or
+   while this thread compiles a model: ml_mjcb_suspend), 0 as MuJoCo does without callbacks
+   (act_dot stays 0, bias 0). When someone replaces the dispatcher (mujoco.set_mjcb_act_dyn),
+   the next plant call or MuJoCo step of a plant with Python actuators installs it again,
+   chaining to the new callback. */
+enum { DYN = 0, BIAS = 1 };
 
-static mjtNum python_callback(int kind, const mjModel* m, const mjData* d, int id) {
-  ml_plant* p = g_python_plant;
+static __thread int t_suspended = 0;       /* this thread compiles a model */
+static mjfAct chained[2] = {NULL, NULL};   /* called for other models: what was installed before */
+static pthread_mutex_t install_mutex = PTHREAD_MUTEX_INITIALIZER;
+
+static mjtNum python_callback(ml_plant* p, int kind, int id) {
   double out = 0.0;
-  if (!p || p->m != m || p->d != d || p->callback_failed) return 0.0;
+  if (p->callback_failed) return 0.0;
   if (p->python_actuator(kind, id, &out) != 0) {
     p->callback_failed = 1;
     return 0.0;
@@ -168,38 +189,66 @@ static mjtNum python_callback(int kind, const mjModel* m, const mjData* d, int i
   return out;
 }
 
-static mjtNum act_dyn(const mjModel* m, const mjData* d, int id) {
-  return python_callback(0, m, d, id);
+static mjtNum dispatch(int kind, const mjModel* m, const mjData* d, int id) {
+  ml_plant* p = t_plant;
+  if (p && p->m == m && p->d == d) return python_callback(p, kind, id);
+  if (t_suspended) return 0.0;
+  mjfAct next = __atomic_load_n(&chained[kind], __ATOMIC_ACQUIRE);
+  return next ? next(m, d, id) : 0.0;
 }
 
-static mjtNum act_bias(const mjModel* m, const mjData* d, int id) {
-  return python_callback(1, m, d, id);
+static mjtNum dispatch_dyn(const mjModel* m, const mjData* d, int id) {
+  return dispatch(DYN, m, d, id);
 }
 
-typedef struct {
-  mjfAct dyn, bias;
-  ml_plant* plant;
-  int active;
-} saved_callbacks;
+static mjtNum dispatch_bias(const mjModel* m, const mjData* d, int id) {
+  return dispatch(BIAS, m, d, id);
+}
 
-/* MuJoCo's callbacks are process-global: maniplab's Python side lets one plant with Python
-   actuators step at a time; nested plants (a controller stepping another) restore in order. */
-static saved_callbacks install(ml_plant* p) {
-  saved_callbacks s = {mjcb_act_dyn, mjcb_act_bias, g_python_plant, p->python_actuator != NULL};
-  if (s.active) {
-    g_python_plant = p;
-    mjcb_act_dyn = act_dyn;
-    mjcb_act_bias = act_bias;
+/* Put `dispatcher` into `*global`, chaining to what is there. Installers are serialised by the
+   mutex; the compare-and-swap catches a callback set meanwhile by code that does not take it. */
+static void install_one(mjfAct* global, mjfAct* chain, mjfAct dispatcher) {
+  mjfAct seen = __atomic_load_n(global, __ATOMIC_ACQUIRE);
+  while (seen != dispatcher) {
+    __atomic_store_n(chain, seen, __ATOMIC_RELEASE);
+    if (__atomic_compare_exchange_n(global, &seen, dispatcher, 0, __ATOMIC_ACQ_REL,
+                                    __ATOMIC_ACQUIRE)) {
+      break;
+    }
   }
-  return s;
 }
 
-static void restore(saved_callbacks s) {
-  if (!s.active) return;
-  mjcb_act_dyn = s.dyn;
-  mjcb_act_bias = s.bias;
-  g_python_plant = s.plant;
+static int installed(void) {
+  return __atomic_load_n(&mjcb_act_dyn, __ATOMIC_ACQUIRE) == dispatch_dyn
+         && __atomic_load_n(&mjcb_act_bias, __ATOMIC_ACQUIRE) == dispatch_bias;
 }
+
+void ml_mjcb_install(void) {
+  if (installed()) return;
+  pthread_mutex_lock(&install_mutex);
+  install_one(&mjcb_act_dyn, &chained[DYN], dispatch_dyn);
+  install_one(&mjcb_act_bias, &chained[BIAS], dispatch_bias);
+  pthread_mutex_unlock(&install_mutex);
+}
+
+int ml_mjcb_suspend(int on) {
+  int previous = t_suspended;
+  t_suspended = on != 0;
+  return previous;
+}
+
+/* The start of a plant call: a plant with Python actuators becomes the one this thread steps.
+   Returns the previous one (the plant whose controller calls this one), for `leave`. */
+static ml_plant* enter(ml_plant* p) {
+  ml_plant* previous = t_plant;
+  if (p->python_actuator) {
+    t_plant = p;
+    ml_mjcb_install();
+  }
+  return previous;
+}
+
+static void leave(ml_plant* previous) { t_plant = previous; }
 
 /* --- friction ------------------------------------------------------------------------------- */
 /* Coulomb + Stribeck force on a slipping joint (no viscous part: MuJoCo's joint damping). At
@@ -357,6 +406,34 @@ static void integrate(const mjModel* m, mjData* d, int integrator) {
   }
 }
 
+/* The force on each joint of the actuators after the n joint actuators (LuGre's bristles, on
+   their joints), as MuJoCo just evaluated it. */
+static void friction_actuators(ml_plant* p) {
+  const mjModel* m = p->m;
+  const mjData* d = p->d;
+  for (int j = 0; j < p->n; j++) p->bristles[j] = 0.0;
+  for (int i = p->n; i < m->nu; i++) {
+    if (m->actuator_trntype[i] != mjTRN_JOINT) continue;
+    int dof = m->jnt_dofadr[m->actuator_trnid[2 * i]];
+    if (dof < p->n) p->bristles[dof] += m->actuator_gear[6 * i] * d->actuator_force[i];
+  }
+}
+
+/* Notes the first NaN, infinite or huge (> mjMAXVAL) value of x[0..len) as a bad value of kind
+   `kind`, unless one is noted already. This is the test of mj_checkPos/Vel/Acc, made here instead
+   because MuJoCo's own warning also prints and appends to MUJOCO_LOG.TXT in the user's folder;
+   the plant stops with its own message instead (and never lets MuJoCo reset the data). */
+static void note_bad(ml_plant* p, int kind, const mjtNum* x, int len) {
+  if (p->bad_kind != -1) return;
+  for (int i = 0; i < len; i++) {
+    if (!(fabs(x[i]) <= mjMAXVAL)) {
+      p->bad_kind = kind;
+      p->bad_index = i;
+      return;
+    }
+  }
+}
+
 /* The start of one MuJoCo step: forces, holds, the forward pass, the automaton's decisions. */
 static void start(ml_plant* p) {
   mjModel* m = p->m;
@@ -369,11 +446,14 @@ static void start(ml_plant* p) {
   for (int i = n; i < m->nu; i++) d->ctrl[i] = 0.0;
   set_forces(p);
   hold(p);
-  mj_checkPos(m, d); /* what mj_step does before its forward pass */
-  mj_checkVel(m, d);
+  if (p->python_actuator) ml_mjcb_install(); /* in case someone replaced it meanwhile */
+  p->bad_kind = -1;
+  note_bad(p, mjWARN_BADQPOS, d->qpos, m->nq); /* mj_step's checks before its forward pass */
+  note_bad(p, mjWARN_BADQVEL, d->qvel, m->nv);
   mj_forward(m, d);
   if (p->nsticky || p->nlimited) settle(p);
-  mj_checkAcc(m, d);
+  if (m->nu > n) friction_actuators(p);
+  note_bad(p, mjWARN_BADQACC, d->qacc, m->nv);
 }
 
 /* Events at the step's end: the holding forces over the step (-hold dqvel/h, the RK4 average:
@@ -435,21 +515,14 @@ static int fail(ml_plant* p, int status, int joint, int index) {
   return status;
 }
 
-/* The instability checks after a step: MuJoCo's warnings of bad values, non-finite velocities,
-   actuator states beyond their bounds, the Python check. */
+/* The instability checks after a step: NaN, infinite or huge values (as MuJoCo's checks define
+   them), actuator states beyond their bounds, the Python check. */
 static int check(ml_plant* p) {
   mjData* d = p->d;
-  static const int warnings[] = {mjWARN_BADQPOS, mjWARN_BADQVEL, mjWARN_BADQACC};
-  for (int i = 0; i < 3; i++) {
-    if (d->warning[warnings[i]].number) {
-      int info = d->warning[warnings[i]].lastinfo;
-      return fail(p, ML_UNSTABLE_MOTION, info < p->n ? info : -1, warnings[i]);
-    }
-  }
-  for (int j = 0; j < p->n; j++) {
-    if (!isfinite(d->qvel[j]) || !isfinite(d->qpos[j])) {
-      return fail(p, ML_UNSTABLE_MOTION, j, -1);
-    }
+  note_bad(p, mjWARN_BADQPOS, d->qpos, p->m->nq); /* so the next step's start never meets one */
+  note_bad(p, mjWARN_BADQVEL, d->qvel, p->m->nv);
+  if (p->bad_kind != -1) {
+    return fail(p, ML_UNSTABLE_MOTION, p->bad_index < p->n ? p->bad_index : -1, p->bad_kind);
   }
   for (int i = 0; i < p->nbounds; i++) {
     double x = d->act[p->bound_adr[i]], bound = p->bound_value[i];
@@ -469,7 +542,7 @@ static int check(ml_plant* p) {
 static int finish(ml_plant* p) {
   integrate(p->m, p->d, p->integrator);
   events(p);
-  memcpy(p->rfric, p->fric, p->n * sizeof(double));
+  for (int j = 0; j < p->n; j++) p->rfric[j] = p->fric[j] + p->bristles[j];
   memcpy(p->rlimit, p->limit, p->n * sizeof(double));
   return check(p);
 }
@@ -517,23 +590,21 @@ void ml_plant_resync(ml_plant* p) {
     if (p->modes[j] == ML_AT_LOWER || p->modes[j] == ML_AT_UPPER) d->qvel[j] = 0.0;
     p->direction[j] = 1.0;
   }
-  d->warning[mjWARN_BADQPOS].number = 0;
-  d->warning[mjWARN_BADQVEL].number = 0;
-  d->warning[mjWARN_BADQACC].number = 0;
+  p->bad_kind = -1;
   p->callback_failed = 0;
 }
 
 int ml_plant_prepare(ml_plant* p, const double* u) {
-  saved_callbacks s = install(p);
+  ml_plant* previous = enter(p);
   int status = prepare(p, u);
-  restore(s);
+  leave(previous);
   return status;
 }
 
 int ml_plant_advance(ml_plant* p) {
-  saved_callbacks s = install(p);
+  ml_plant* previous = enter(p);
   int status = advance(p);
-  restore(s);
+  leave(previous);
   return status;
 }
 
@@ -569,7 +640,6 @@ static int run(ml_plant* p, ml_run* r) {
         return fail(p, ML_CONTROLLER_ERROR, -1, -1);
       }
       r->next_call = r->period > 0.0 ? r->next_call + r->period : t;
-      if (p->python_actuator) install(p); /* in case the controller compiled a model meanwhile */
     }
     for (int j = 0; j < n; j++) {
       u[j] = r->inputs ? r->held[j] + r->inputs[(size_t)k * n + j] : r->held[j];
@@ -597,9 +667,9 @@ static int run(ml_plant* p, ml_run* r) {
 }
 
 int ml_plant_run(ml_plant* p, ml_run* r) {
-  saved_callbacks s = install(p);
+  ml_plant* previous = enter(p);
   int status = run(p, r);
-  restore(s);
+  leave(previous);
   return status;
 }
 

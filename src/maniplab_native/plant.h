@@ -12,8 +12,9 @@
        back, stick and limit events) and the instability checks.
 
    The physics of the actuators is MuJoCo's (its motor, maniplab's engine plugins); actuators
-   written in Python are reached through MuJoCo's act_dyn/act_bias callbacks, which this library
-   installs only while its plant steps. */
+   written in Python are reached through MuJoCo's act_dyn/act_bias callbacks: this library
+   installs one dispatcher for the process (ml_mjcb_install), which answers the plant the calling
+   thread steps and leaves every other model as MuJoCo would. */
 #ifndef MANIPLAB_PLANT_H_
 #define MANIPLAB_PLANT_H_
 
@@ -97,7 +98,9 @@ typedef struct {
   double* act;             /* (rows, na) */
   double* ctrl;            /* (rows, n) */
   signed char* mode;       /* (rows, n) */
-  double* fric;            /* (rows, n) */
+  double* fric;            /* (rows, n): the slipping joints' applied friction, stiction's holding
+                              force (the step's average), the friction actuators' (LuGre's bristles,
+                              the actuators after the first n) at the step's start; not viscous */
   double* limit;           /* (rows, n) */
   int ee_body;             /* a body whose position is recorded (the end-effector), or -1 */
   double* ee_pos;          /* (rows, 3): its position at the step's start (d->xpos) */
@@ -116,6 +119,16 @@ void ml_plant_free(ml_plant* p);
 
 /* The Python actuators' callbacks (NULL: none) and per-step check (NULL: none). */
 void ml_plant_set_python(ml_plant* p, ml_actuator_fn actuator, ml_check_fn check);
+
+/* Install the process's mjcb_act_dyn/mjcb_act_bias dispatcher unless it is installed, chaining to
+   the callbacks installed now; it is never removed. It answers a call with the Python actuators
+   of the plant (with them) that the calling thread steps; for any other model it calls the
+   chained callback, or returns 0 without one, as MuJoCo does without callbacks. A plant call
+   installs it again if someone replaced it (mujoco.set_mjcb_act_dyn), chaining to the new one. */
+void ml_mjcb_install(void);
+/* on != 0: for the calling thread, the dispatcher answers every model but its plant's with 0 (no
+   chained callback: MuJoCo calls them while compiling a model). Returns the previous setting. */
+int ml_mjcb_suspend(int on);
 
 /* After a reset or any change of the state: modes from the state (on a limit: AT_*, velocity
    zeroed; at rest with stick/slip friction: STICK; else SLIP), break-away directions cleared. */

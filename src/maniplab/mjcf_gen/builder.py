@@ -141,8 +141,8 @@ def compile_model(s: mujoco.MjSpec, spec: ManipulatorSpec) -> mujoco.MjModel:
     """Compile ``s``, the MjSpec of ``spec`` (possibly changed, as the plant's is), and check it.
 
     MuJoCo calls the process-global actuator callbacks while compiling, when Python ones cannot be
-    handed the model yet; so any installed ones (a plant stepping in this thread, a user's) are
-    suspended meanwhile (:func:`maniplab.mjcb.suspended`) and restored afterwards.
+    handed the model yet; so none is called for it (:func:`maniplab.mjcb.suspended`, in this
+    thread only: the callbacks installed stay in place).
 
     Raises:
         ModelError: as :func:`build_model`.

@@ -1,13 +1,14 @@
 """Python actuators in the plant: MuJoCo's act_dyn and act_bias callbacks answered in Python.
 
-MuJoCo's actuator callbacks are process-global. The plant in C installs its own pair only while it
-steps (``maniplab_native/plant.c``); for the actuators written in Python (``user`` dynamics or
-bias) they call back into Python through the ctypes hooks of :class:`PythonHooks`, which ask the
-actuator's :meth:`~maniplab.actuators.ActuatorPlugin.derivatives` and
+MuJoCo's actuator callbacks are process-global: maniplab's one dispatcher (:mod:`maniplab.mjcb`,
+``maniplab_native/plant.c``) hands each call for a plant's model, made while a thread steps that
+plant, to the plant's hooks. For the actuators written in Python (``user`` dynamics or bias) they
+call back into Python through the ctypes hooks of :class:`PythonHooks`, which ask the actuator's
+:meth:`~maniplab.actuators.ActuatorPlugin.derivatives` and
 :meth:`~maniplab.actuators.ActuatorPlugin.force` (:class:`PluginCallbacks`). A hook that raises
 stops the run after the step, and the plant raises that error (as a PluginError naming the
-actuator and the joint). One plant with Python actuators steps at a time in a process
-(:func:`maniplab.mjcb.exclusive`); plants without any step in parallel, with no Python at all.
+actuator and the joint). Plants in several threads step in parallel, each calling its own hooks
+(which take the GIL for the Python call); plants without Python actuators run no Python at all.
 
 Each callback costs a Python call (about 3 µs per actuator and RK4 stage): an arm with one Python
 actuator steps several times slower than with maniplab's engine plugins alone (see the

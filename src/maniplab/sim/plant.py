@@ -42,7 +42,7 @@ import numpy as np
 from maniplab.actuators import CapabilityError
 from maniplab.builtin import resolve_spec
 from maniplab.friction import FrictionModel
-from maniplab.mjcb import exclusive, suspended
+from maniplab.mjcb import suspended
 from maniplab.mjcf_gen.builder import arm_step_limit
 from maniplab.mjcf_gen.timestep import default_step, round_down
 from maniplab.sim import native
@@ -78,7 +78,8 @@ class StepRecord:
         u: the clipped commands of the step, (n,).
         mode: the joints' modes over the step (``FrictionMode`` values), (n,).
         fric: the friction force applied over the last advanced step (stiction's holding force
-            included, viscous part excluded), N or N·m, (n,).
+            and LuGre's bristle force at the step's start included, viscous part excluded), N or
+            N·m, (n,).
         limit: the limit stops' force over the last advanced step, N or N·m, (n,).
     """
 
@@ -239,7 +240,7 @@ class Plant:
         d = self.data
         saved = d.qvel.copy()
         d.qvel[:] = 0.0
-        with suspended():  # only the bias forces are wanted: no actuator callbacks
+        with suspended():  # only the bias forces are wanted: no foreign actuator callbacks
             mujoco.mj_forward(self._model, d)
         gravity = d.qfrc_bias.copy()
         d.qvel[:] = saved
@@ -324,24 +325,28 @@ class Plant:
             out = np.where(np.isnan(arr) | ~has, out, arr)
         if not np.isfinite(out[has]).all():
             raise InputError(f"{what}: values must be finite, got {out.tolist()}")
+        huge = np.flatnonzero(np.abs(out) > mujoco.mjMAXVAL) if what in ("q", "qd") else []
+        if len(huge):
+            raise InputError(f"{what}: joint {self.joint_names[huge[0]]}: {out[huge[0]]:g} is "
+                             f"beyond MuJoCo's bound on positions and velocities "
+                             f"({mujoco.mjMAXVAL:g})")
         return out
 
     # --- stepping ----------------------------------------------------------------------------
     def scope(self) -> contextlib.AbstractContextManager[None]:
-        """Context in which the plant may step: a plant with Python actuators holds the lock of
-        MuJoCo's process-global callbacks (:func:`maniplab.mjcb.exclusive`); the others need
-        nothing. :meth:`step` and ``simulate`` enter it themselves."""
-        return exclusive() if self._hooks is not None else contextlib.nullcontext()
+        """Context in which the plant may step: it holds nothing, for any plant (MuJoCo's
+        callbacks reach each thread's plant through one dispatcher, :mod:`maniplab.mjcb`); kept
+        for the callers of :meth:`prepare` and :meth:`advance` written for it."""
+        return contextlib.nullcontext()
 
     def step(self, commands: Any = None) -> None:
         """Advance one step of ``dt`` with the commands (array (n,) or mapping), held over it."""
         u = self.command_vector(np.zeros(self.n) if commands is None else commands)
-        with self.scope():
-            self.prepare(u.tolist())
-            self.advance()
+        self.prepare(u.tolist())
+        self.advance()
 
     def prepare(self, u: list[float]) -> None:
-        """First half of a step at the current time (call inside :meth:`scope`).
+        """First half of a step at the current time.
 
         Clips and writes the commands, sets the friction forces for the step, holds the joints
         that are stuck or on a limit, and evaluates the dynamics at the step's start (MuJoCo's
@@ -355,7 +360,7 @@ class Plant:
         self._prepared = True
 
     def advance(self) -> None:
-        """Second half of a step (after :meth:`prepare`, inside :meth:`scope`): integrate dt.
+        """Second half of a step (after :meth:`prepare`): integrate dt.
 
         Then the automaton's events at the step's end (held joints put back, stick and limit
         events) and the instability checks; as many times as the step has sub-steps (see
@@ -375,7 +380,8 @@ class Plant:
     @property
     def tau_fric(self) -> np.ndarray:
         """Friction force on each joint over the last step (stiction's holding force when stuck,
-        viscous part at the step's start included), N or N·m, (n,)."""
+        LuGre's bristle force and the viscous part at the step's start included), N or N·m,
+        (n,)."""
         r = self.record
         return np.array(r.fric) - self.viscous * np.array(r.qd)
 
@@ -408,12 +414,11 @@ class Plant:
 
 
 def _motion_problem(warning: int) -> str:
-    """The message of an unstable motion: MuJoCo's warning ``warning`` (or -1: a velocity)."""
+    """The message of an unstable motion: a bad value of the kind of MuJoCo's warning ``warning``
+    (``mjWARN_BADQPOS``, ``QVEL`` or ``QACC``)."""
     names = {int(getattr(mujoco.mjtWarning, f"mjWARN_BAD{name}")): name
              for name in ("QPOS", "QVEL", "QACC")}
-    if warning in names:
-        return f"MuJoCo warned of a NaN, infinite or huge value (> 1e10) in {names[warning]}"
-    return "the joint velocity is not finite (NaN or infinity)"
+    return f"a NaN, infinite or huge value (> 1e10) in {names.get(warning, 'QVEL')}"
 
 
 class _CPlant:
