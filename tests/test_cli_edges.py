@@ -84,3 +84,28 @@ def test_linearize_at_a_feasible_point_still_works() -> None:
     spec = ml.builtin_spec("crane3")
     sys = ml.linearize(spec, np.zeros(spec.n))
     assert np.isfinite(np.asarray(sys.A)).all()
+
+
+@pytest.mark.parametrize("argv", [
+    ["simulate", "crane3", "--duration", "5", "-o", "/dev/full"],
+    ["crossval", "crane3", "-o", "/dev/null"],
+    ["export", "crane3", "-o", "{tmp}"],
+    ["sweep", "crane3", "--duration", "5", "--vary", "end_effector.mass=1,2", "-o", "{file}"],
+    ["demo", "--quick", "-o", "{file}"],
+])
+def test_an_output_that_cannot_be_written_is_refused_before_any_work(
+        capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch, tmp_path: Path,
+        argv: list[str]) -> None:
+    """A device, a folder given as -o FILE, a file given as -o DIR: one line at once, nothing
+    simulated (ml.simulate, crossvalidate and sweep would raise here), nothing replaced."""
+    def forbidden(*args: object, **kwargs: object) -> None:
+        raise AssertionError("work started for an output that cannot be written")
+
+    for name in ("simulate", "crossvalidate", "sweep"):
+        monkeypatch.setattr(ml, name, forbidden)
+    (tmp_path / "file").write_text("mine")
+    argv = [a.format(tmp=tmp_path, file=tmp_path / "file") for a in argv]
+    code, out, err = run(capsys, *argv)
+    assert code == EXIT_BAD_INPUT and out == ""
+    assert err.count("\n") == 1 and "argument -o/--output" in err
+    assert (tmp_path / "file").read_text() == "mine" and Path("/dev/full").is_char_device()

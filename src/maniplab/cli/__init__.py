@@ -43,10 +43,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``maniplab`` console script; returns the exit status."""
     os.environ.setdefault("MUJOCO_GL", "egl")
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args, extra = parser.parse_known_args(argv)
     if args.command is None:
+        if extra:
+            parser.error(f"unrecognized arguments: {' '.join(extra)}")
         parser.print_help()
         return EXIT_BAD_INPUT
+    if extra:  # argparse would blame the top-level parser; the sub-command's help is the one wanted
+        _subparser(parser, args.command).error(f"unrecognized arguments: {' '.join(extra)}")
     from maniplab.errors import ManiplabError
 
     try:
@@ -61,3 +65,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f"maniplab {args.command}: interrupted", file=sys.stderr)
         return 130
+
+
+def _subparser(parser: argparse.ArgumentParser, command: str) -> argparse.ArgumentParser:
+    """The parser of sub-command ``command``."""
+    action = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    sub: argparse.ArgumentParser = action.choices[command]
+    return sub

@@ -3,7 +3,11 @@
 from __future__ import annotations
 
 import argparse
-from typing import NoReturn
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any, NoReturn
+
+from maniplab.errors import ManiplabError
 
 EXIT_BAD_INPUT = 2
 """Bad input: a spec error, a malformed argument, a refused request."""
@@ -31,8 +35,52 @@ def positive_int(text: str) -> int:
     return value
 
 
+def output_file(text: str) -> Path:
+    """argparse type of -o FILE: refused at once when it names a device, fifo or folder (nothing
+    is computed for an output that cannot be written)."""
+    from maniplab.atomic import check_target
+
+    try:
+        check_target(text)
+    except (ManiplabError, OSError) as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return Path(text)
+
+
+def output_folder(text: str) -> Path:
+    """argparse type of -o DIR: refused at once when it exists and is not a folder."""
+    path = Path(text)
+    if path.exists() and not path.is_dir():
+        raise argparse.ArgumentTypeError(f"{text}: exists and is not a folder")
+    return path
+
+
 def spec_argument(parser: argparse.ArgumentParser) -> None:
-    """The positional SPEC argument: a spec file or a built-in name."""
+    """The positional SPEC argument: a spec file or a built-in name; and ``--plugin``."""
     parser.add_argument("spec", metavar="SPEC",
                         help="a spec file (YAML) or the name of a built-in spec "
                              "(see 'maniplab info --list')")
+    plugin_option(parser)
+
+
+def plugin_option(parser: argparse.ArgumentParser) -> None:
+    """``--plugin MODULE`` (repeatable): import an actuator plugin module on purpose, so that a
+    spec may name its classes as ``module:Class``; a spec alone never imports anything."""
+    parser.add_argument("--plugin", action=_LoadPlugin, metavar="MODULE",
+                        help="import this actuator plugin module, so that specs may name its "
+                             "classes ('type: MODULE:Class'), repeatable; also "
+                             "MANIPLAB_PLUGINS=MODULE,... (a spec never imports code itself)")
+
+
+class _LoadPlugin(argparse.Action):
+    """Imports the module as the option is parsed; a failure is a one-line usage error."""
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace,
+                 values: str | Sequence[Any] | None, option_string: str | None = None) -> None:
+        from maniplab.actuators.registry import PluginLookupError, load_plugins
+
+        try:
+            load_plugins(str(values))
+        except PluginLookupError as exc:
+            parser.error(f"{option_string}: {exc}")
+        setattr(namespace, self.dest, [*(getattr(namespace, self.dest, None) or []), values])

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from maniplab.cli.common import EXIT_MISSED, spec_argument
+from maniplab.cli.common import EXIT_MISSED, output_folder, spec_argument
 
 
 def add(sub: argparse._SubParsersAction) -> None:
@@ -44,7 +44,7 @@ def add(sub: argparse._SubParsersAction) -> None:
     control.add_argument("--tolerance", default="2,5", metavar="FINAL,RMS",
                          help="the move's tolerances, mm: the final position error and the RMS "
                               "error over the move (default: 2,5)")
-    control.add_argument("-o", "--output", type=Path, default=Path("out/control"), metavar="DIR",
+    control.add_argument("-o", "--output", type=output_folder, default=Path("out/control"), metavar="DIR",
                          help="folder for control.npz, control.json, control.png "
                               "(default: out/control)")
     control.set_defaults(func=_cmd_control)

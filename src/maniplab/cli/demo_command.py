@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from maniplab.cli.common import output_folder
+
 
 def add(sub: argparse._SubParsersAction) -> None:
     """Register the demo sub-command."""
@@ -15,7 +17,7 @@ def add(sub: argparse._SubParsersAction) -> None:
                     "move with the cascade controller and the PID baseline, cross-validate the "
                     "MuJoCo plant against the analytic model, render the videos and write "
                     "DIR/report.html.")
-    demo.add_argument("-o", "--output", type=Path, default=Path("out/demo"), metavar="DIR",
+    demo.add_argument("-o", "--output", type=output_folder, default=Path("out/demo"), metavar="DIR",
                       help="folder for the results (default: out/demo)")
     demo.add_argument("--quick", action="store_true",
                       help="a short version (short runs, small videos), e.g. for tests")

@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from maniplab.cli.common import output_file, plugin_option
+
 
 def add(sub: argparse._SubParsersAction) -> None:
     """Register the sub-command(s) of this module."""
@@ -15,7 +17,8 @@ def add(sub: argparse._SubParsersAction) -> None:
                     "parameters that differ. Needs no display: MUJOCO_GL defaults to egl.")
     render.add_argument("runs", metavar="RUN", nargs="+", type=Path,
                         help="run files written by Run.save (.npz)")
-    render.add_argument("-o", "--output", type=Path, metavar="FILE",
+    plugin_option(render)
+    render.add_argument("-o", "--output", type=output_file, metavar="FILE",
                         help="the video to write, .mp4 (H.264) or .gif (default: out/<run>.mp4, "
                              "out/grid.mp4 or out/overlay.mp4)")
     layout = render.add_mutually_exclusive_group()

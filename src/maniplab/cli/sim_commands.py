@@ -7,7 +7,14 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from maniplab.cli.common import spec_argument
+from maniplab.cli.common import (
+    EXIT_MISSED,
+    output_file,
+    output_folder,
+    plugin_option,
+    positive_int,
+    spec_argument,
+)
 
 if TYPE_CHECKING:
     from maniplab.sim.signals import Signal
@@ -47,7 +54,7 @@ def _add_simulate(sub: argparse._SubParsersAction) -> None:
     spec_argument(p)
     _run_options(p)
     p.add_argument("--set", action="append", default=[], metavar="PATH=VALUE", help=_SET_HELP)
-    p.add_argument("-o", "--output", type=Path, default=Path("out/run.npz"), metavar="FILE",
+    p.add_argument("-o", "--output", type=output_file, default=Path("out/run.npz"), metavar="FILE",
                    help="the run file to write (default: out/run.npz)")
     p.set_defaults(func=_cmd_simulate)
 
@@ -61,10 +68,10 @@ def _add_sweep(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--vary", action="append", required=True, metavar="PATH=V1,V2,...",
                    help="values of one parameter, repeatable (the grid is every combination), "
                         "e.g. end_effector.mass=3000,4000,5000")
-    p.add_argument("--processes", type=int, metavar="N",
+    p.add_argument("--processes", type=positive_int, metavar="N",
                    help="local workers (default: one per core): threads when no variant needs "
                         "Python while it steps, else processes")
-    p.add_argument("-o", "--output", type=Path, required=True, metavar="DIR",
+    p.add_argument("-o", "--output", type=output_folder, required=True, metavar="DIR",
                    help="folder for the runs")
     p.set_defaults(func=_cmd_sweep)
 
@@ -74,10 +81,11 @@ def _add_compare(sub: argparse._SubParsersAction) -> None:
                        description="Plot signals of stored runs into one figure (PNG, SVG or "
                                    "PDF), one row per signal, a legend naming what differs.")
     p.add_argument("runs", metavar="RUN", nargs="+", type=Path, help="run files (.npz)")
+    plugin_option(p)
     p.add_argument("--signals", default="q", metavar="S1,S2",
                    help="q, qd, dP, Q, iv, tau_act, tau_fric, mode, ee_path (default: q)")
     p.add_argument("--joints", metavar="J1,J2", help="joint columns (default: the active ones)")
-    p.add_argument("-o", "--output", type=Path, default=Path("out/compare.png"), metavar="FILE",
+    p.add_argument("-o", "--output", type=output_file, default=Path("out/compare.png"), metavar="FILE",
                    help="figure file, .png, .svg or .pdf (default: out/compare.png)")
     p.set_defaults(func=_cmd_compare)
 
@@ -86,6 +94,7 @@ def _add_runs(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("runs", help="table of the runs stored in a folder",
                        description="List the runs in DIR with the parameters that differ.")
     p.add_argument("folder", metavar="DIR", type=Path, help="a folder of run files")
+    plugin_option(p)
     p.set_defaults(func=_cmd_runs)
 
 
@@ -102,7 +111,7 @@ def _add_crossval(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--duration", type=float, default=5.0, metavar="T",
                    help="simulated time, s (default: 5)")
     p.add_argument("--method", default="DOP853", help="scipy solver (default: DOP853)")
-    p.add_argument("-o", "--output", type=Path, default=Path("out/crossval.png"), metavar="FILE",
+    p.add_argument("-o", "--output", type=output_file, default=Path("out/crossval.png"), metavar="FILE",
                    help="figure of both trajectories (default: out/crossval.png)")
     p.set_defaults(func=_cmd_crossval)
 
@@ -155,7 +164,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     print(runs.table())
     print(f"\n{len(runs)} runs in {args.output}" +
           (f", {len(runs.failures)} failed" if runs.failures else ""))
-    return 1 if runs.failures and not len(runs) else 0
+    return EXIT_MISSED if runs.failures else 0
 
 
 def _cmd_compare(args: argparse.Namespace) -> int:

@@ -3,9 +3,8 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
-from maniplab.cli.common import spec_argument
+from maniplab.cli.common import output_file, plugin_option, spec_argument
 
 
 def add(sub: argparse._SubParsersAction) -> None:
@@ -14,12 +13,13 @@ def add(sub: argparse._SubParsersAction) -> None:
                           description="Print a table of joints, bodies, masses, actuators and limits.")
     info.add_argument("spec", metavar="SPEC", nargs="?", help="a spec file or built-in name")
     info.add_argument("--list", action="store_true", help="list the built-in specs")
+    plugin_option(info)
     info.set_defaults(func=_cmd_info)
 
     export = sub.add_parser("export", help="write the arm's MJCF model",
                             description="Write the MuJoCo model (MJCF, full float precision).")
     spec_argument(export)
-    export.add_argument("-o", "--output", required=True, type=Path, metavar="FILE",
+    export.add_argument("-o", "--output", required=True, type=output_file, metavar="FILE",
                         help="the MJCF file to write (e.g. arm.xml)")
     export.set_defaults(func=_cmd_export)
 
@@ -36,7 +36,7 @@ def add(sub: argparse._SubParsersAction) -> None:
     spec_argument(model)
     model.add_argument("-f", "--format", choices=("latex", "markdown", "python", "c"),
                        help="output format (default: from the file's suffix .tex, .md, .py, .c)")
-    model.add_argument("-o", "--output", required=True, type=Path, metavar="FILE",
+    model.add_argument("-o", "--output", required=True, type=output_file, metavar="FILE",
                        help="the file to write")
     model.add_argument("--symbolic", default="mass,length,payload", metavar="GROUPS",
                        help="parameter groups kept as symbols in latex/markdown, comma-separated, "

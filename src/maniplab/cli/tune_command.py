@@ -4,9 +4,8 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-from pathlib import Path
 
-from maniplab.cli.common import spec_argument
+from maniplab.cli.common import output_file, spec_argument
 
 
 def add(sub: argparse._SubParsersAction) -> None:
@@ -20,7 +19,7 @@ def add(sub: argparse._SubParsersAction) -> None:
                     "control: section, one comment line of reasoning per gain. Gains written in "
                     "the spec's control: section win over derived ones.")
     spec_argument(tune)
-    tune.add_argument("-o", "--output", type=Path, metavar="FILE",
+    tune.add_argument("-o", "--output", type=output_file, metavar="FILE",
                       help="write a copy of the spec with the control: section filled in "
                            "(gains already in the spec kept)")
     tune.set_defaults(func=_cmd_tune)

@@ -55,10 +55,13 @@ class Run:
     meta: Mapping[str, Any] = dataclasses.field(default_factory=dict)
 
     def __post_init__(self) -> None:
+        if np.ndim(self.t) != 1:
+            raise RunShapeError(f"t must be one-dimensional, not of shape {np.shape(self.t)}")
         n = len(self.t)
         for name, values in self.signals.items():
-            if len(values) != n:
-                raise RunShapeError(f"signal {name!r} has {len(values)} samples, t has {n}")
+            samples = len(values) if np.ndim(values) else 0
+            if samples != n:
+                raise RunShapeError(f"signal {name!r} has {samples} samples, t has {n}")
 
     @property
     def q(self) -> np.ndarray:

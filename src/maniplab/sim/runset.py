@@ -8,9 +8,9 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from maniplab.atomic import is_temporary
 from maniplab.sim import params, store
 from maniplab.sim.run import Run
-from maniplab.spec import ManipulatorSpec
 
 
 @dataclasses.dataclass(frozen=True)
@@ -28,7 +28,8 @@ class RunSet:
     taken (``runset[i]``, iteration). ``failures`` lists variants of a sweep that failed.
 
     Args:
-        paths: a folder (every ``*.npz`` in it, sorted) or a sequence of run files.
+        paths: a folder (every ``*.npz`` in it, sorted, but the hidden temporary files of a save
+            in progress or killed, see :mod:`maniplab.atomic`) or a sequence of run files.
         failures: failed variants to carry along (from a sweep).
     """
 
@@ -36,7 +37,7 @@ class RunSet:
                  failures: Sequence[Failure] = ()) -> None:
         if isinstance(paths, (str, os.PathLike)):
             folder = Path(paths)
-            self.paths = sorted(folder.glob("*.npz")) if folder.is_dir() else [folder]
+            self.paths = _run_files(folder) if folder.is_dir() else [folder]
         else:
             self.paths = [Path(p) for p in paths]
         self.failures = list(failures)
@@ -65,7 +66,7 @@ class RunSet:
     def parameters(self, index: int) -> dict[str, Any]:
         """Flat parameters of run ``index``: spec values by override path, plus ``meta.*`` keys."""
         header = self.header(index)
-        spec = ManipulatorSpec.from_dict(header["spec"])
+        spec = store.stored_spec(header, self.paths[index])
         flat = params.flatten_spec(spec)
         flat.update({f"meta.{k}": v for k, v in header.get("meta", {}).items()
                      if k != "label" and isinstance(v, (str, int, float, bool))})
@@ -98,6 +99,12 @@ class RunSet:
         lines.insert(1, "  ".join("-" * w for w in widths))
         lines += [f"FAILED {params.format_parameters(f.parameters)}: {f.error}" for f in self.failures]
         return "\n".join(lines)
+
+
+def _run_files(folder: Path) -> list[Path]:
+    """The run files of ``folder``: regular files (a fifo would block the reader), not hidden
+    temporary files."""
+    return sorted(p for p in folder.glob("*.npz") if p.is_file() and not is_temporary(p))
 
 
 def _matches(values: dict[str, Any], wanted: dict[str, Any],

@@ -13,6 +13,7 @@ from __future__ import annotations
 import hashlib
 import json
 import zipfile
+import zlib
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeVar
@@ -29,6 +30,10 @@ if TYPE_CHECKING:
 FORMAT = "maniplab-run/1"
 
 R = TypeVar("R", bound="Run")
+
+#: Signals with one column per joint.
+JOINT_SIGNALS = frozenset({"q", "qd", "tau_act", "tau_fric", "tau_limit", "ctrl", "iv", "dP", "Q",
+                           "mode"})
 
 
 class RunFileError(ManiplabError):
@@ -81,45 +86,105 @@ def save(run: Run, path: Path) -> None:
 
 def read_header(path: Path) -> dict[str, Any]:
     """Only the JSON header of a run file (cheap: the arrays are not read)."""
-    _check_exists(path)
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            header = json.loads(str(data["header"]))
-    except _READ_ERRORS as exc:
-        raise RunFileError(f"{path}: not a readable maniplab run file ({_why(exc)})") from None
-    if not isinstance(header, dict) or header.get("format") != FORMAT:
-        found = header.get("format") if isinstance(header, dict) else None
-        raise RunFileError(f"{path}: unknown run format {found!r}; expected {FORMAT}")
-    return header
+    with _open(path) as data:
+        return _header(path, data)
 
 
 def load(path: Path, cls: type[R]) -> R:
     """Read a run file as a ``cls`` (a Run) and check its content hash; raises RunFileError naming
-    the file and what is wrong (missing, truncated, corrupt, unknown format, invalid spec)."""
-    header = read_header(path)
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            t = data["t"]
-            signals = {k.removeprefix("signal/"): data[k] for k in data.files if k.startswith("signal/")}
-    except _READ_ERRORS as exc:
-        raise RunFileError(f"{path}: not a readable maniplab run file ({_why(exc)})") from None
+    the file and what is wrong (missing, truncated, corrupt, unknown format, invalid spec, signals
+    of the wrong length)."""
+    with _open(path) as data:
+        header = _header(path, data)
+        t = _array(path, data, "t")
+        signals = {name.removeprefix("signal/"): _array(path, data, name)
+                   for name in data.files if name.startswith("signal/")}
     if content_hash(t, signals, header) != header.get("hash"):
         raise RunFileError(f"{path}: content hash mismatch; the file is corrupt or was edited")
+    spec = stored_spec(header, path)
     try:
-        spec = ManipulatorSpec.from_dict(header["spec"], source=str(path))
+        run = cls(t=t, signals=signals, spec=spec, meta=header.get("meta", {}))
+    except ManiplabError as exc:  # e.g. a signal whose length is not t's
+        raise RunFileError(f"{path}: {exc}") from None
+    _check_samples(path, run)
+    return run
+
+
+def stored_spec(header: dict[str, Any], path: Path) -> ManipulatorSpec:
+    """The spec in a run file's ``header``; raises RunFileError naming ``path`` when invalid."""
+    try:
+        return ManipulatorSpec.from_dict(header.get("spec"), source=str(path), defer_plugins=True)
     except SpecError as exc:
         raise RunFileError(f"{path}: the stored spec is invalid ({exc.problem})") from None
-    return cls(t=t, signals=signals, spec=spec, meta=header.get("meta", {}))
 
 
-_READ_ERRORS = (OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError, json.JSONDecodeError)
+def _check_samples(path: Path, run: Run) -> None:
+    """What every reader of a run relies on: samples at increasing finite times, ``q``, and one
+    column per joint in the per-joint signals (``ee_pos``: x, y, z)."""
+    t = run.t
+    if not len(t) or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
+        raise RunFileError(f"{path}: t is not a non-empty increasing series of finite times")
+    if "q" not in run.signals:
+        raise RunFileError(f"{path}: the run has no signal 'q'")
+    for name, values in run.signals.items():
+        width = 3 if name == "ee_pos" else run.spec.n if name in JOINT_SIGNALS else None
+        if width is not None and values.shape[1:] != (width,):
+            raise RunFileError(f"{path}: signal {name!r} has shape {values.shape}; expected "
+                               f"({len(t)}, {width})")
 
 
-def _check_exists(path: Path) -> None:
+def _open(path: Path) -> np.lib.npyio.NpzFile:
+    """``path`` opened by numpy, never unpickling; raises RunFileError unless it is a zip."""
     if not path.is_file():
-        raise RunFileError(f"{path}: no such run file")
+        raise RunFileError(f"{path}: {'not a regular file' if path.exists() else 'no such run file'}")
+    # checked first: numpy reads any other file as a pickle, and refuses in its own words
+    if not zipfile.is_zipfile(path):
+        raise _unreadable(path, "not an .npz archive")
+    try:
+        return np.load(path, allow_pickle=False)
+    except _READ_ERRORS as exc:
+        raise _unreadable(path, _why(exc)) from None
+
+
+def _header(path: Path, data: np.lib.npyio.NpzFile) -> dict[str, Any]:
+    """The JSON header of an opened run file, checked for its format."""
+    try:
+        header = json.loads(str(_array(path, data, "header", kinds="U")))
+    except json.JSONDecodeError:
+        raise _unreadable(path, "its header is not JSON") from None
+    if not isinstance(header, dict) or header.get("format") != FORMAT:
+        found = header.get("format") if isinstance(header, dict) else None
+        raise RunFileError(f"{path}: unknown run format {found!r}; expected {FORMAT}")
+    if not isinstance(header.get("meta", {}), dict):
+        raise RunFileError(f"{path}: the stored meta is not a mapping")
+    return header
+
+
+def _array(path: Path, data: np.lib.npyio.NpzFile, name: str, kinds: str = "biuf") -> np.ndarray:
+    """Member ``name`` of an opened run file: an array of a dtype kind in ``kinds``."""
+    if name not in data.files:
+        raise _unreadable(path, f"no {name!r} array")
+    try:
+        values = data[name]
+    except _READ_ERRORS as exc:
+        raise _unreadable(path, f"{name!r}: {_why(exc)}") from None
+    # numpy hands back the raw bytes of a member that is not an .npy array (e.g. a pickle)
+    if not isinstance(values, np.ndarray) or values.dtype.kind not in kinds:
+        raise _unreadable(path, f"{name!r} is not a plain array")
+    return values
+
+
+_READ_ERRORS = (OSError, ValueError, zipfile.BadZipFile, EOFError, zlib.error)
+
+
+def _unreadable(path: Path, reason: str) -> RunFileError:
+    return RunFileError(f"{path}: not a readable maniplab run file ({reason})")
 
 
 def _why(exc: BaseException) -> str:
-    text = str(exc).splitlines()[0] if str(exc) else exc.__class__.__name__
-    return text[:120]
+    """maniplab's words for a read error (numpy's would suggest unpickling the file)."""
+    if isinstance(exc, OSError) and exc.strerror:
+        return exc.strerror
+    if isinstance(exc, ValueError):
+        return "not an array numpy reads without unpickling"
+    return "damaged or truncated archive"
