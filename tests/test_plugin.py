@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import importlib.metadata
 import math
+import sys
 import textwrap
 import threading
 
@@ -128,7 +129,9 @@ def test_bad_plugin_parameters_name_file_joint_and_field(tmp_path, edit, field, 
 
 
 @pytest.mark.parametrize(("kind", "words"), [
-    ("nosuchmodule.motors:Motor", ["cannot import module 'nosuchmodule.motors'"]),
+    ("nosuchmodule.motors:Motor", ["names module 'nosuchmodule.motors', which was not loaded",
+                                   "--plugin nosuchmodule.motors",
+                                   "MANIPLAB_PLUGINS=nosuchmodule.motors"]),
     ("plugins.dcmotor:Nothing", ["has no 'Nothing'"]),
     ("plugins.dcmotor:DCMotorParams", ["not a subclass of maniplab.actuators.ActuatorPlugin"]),
     ("electrik", ["unknown actuator type 'electrik'", "'torque' or 'hydraulic'",
@@ -138,6 +141,47 @@ def test_unknown_plugin_types_are_spec_errors(kind, words) -> None:
     with pytest.raises(ml.SpecError) as caught:
         motor_arm(kind)
     assert caught.value.field == "actuator.type"
+    for word in words:
+        assert word in str(caught.value)
+
+
+def test_a_module_named_on_purpose_is_imported_once_named(monkeypatch) -> None:
+    """``module:Class`` resolves only after load_plugins or MANIPLAB_PLUGINS names the module
+    (tests/plugins/spring.py is imported nowhere else)."""
+    monkeypatch.delitem(sys.modules, "plugins.spring", raising=False)
+    monkeypatch.delenv("MANIPLAB_PLUGINS", raising=False)
+    monkeypatch.setattr(registry_module, "_LOADED", set())
+    monkeypatch.setattr(registry_module, "_RESOLVED", {})
+    with pytest.raises(ml.SpecError, match="names module 'plugins.spring', which was not loaded"):
+        spring_arm()
+    assert "plugins.spring" not in sys.modules
+    monkeypatch.setenv("MANIPLAB_PLUGINS", "json, plugins.spring")
+    spec = spring_arm()
+    assert type(ml.spec.model_of(spec.joints[0])).__name__ == "LinearSpring"
+    assert "plugins.spring" in sys.modules
+    monkeypatch.delenv("MANIPLAB_PLUGINS")
+    monkeypatch.delitem(sys.modules, "plugins.spring")
+    monkeypatch.setattr(registry_module, "_LOADED", set())
+    monkeypatch.setattr(registry_module, "_RESOLVED", {})
+    ml.load_plugins("plugins.spring")
+    assert spring_arm().joints[0].actuator.stiffness == 5.0
+
+
+def spring_arm() -> ml.ManipulatorSpec:
+    """One joint on the plugin of tests/plugins/spring.py."""
+    return ml.ManipulatorSpec.from_dict({"joints": [{
+        "type": "R", "axis": "z", "body": {"length": LENGTH, "mass": MASS},
+        "actuator": {"type": "plugins.spring:LinearSpring", "stiffness": 5.0}}]})
+
+
+@pytest.mark.parametrize(("module", "words"), [
+    ("nosuchmodule", ["cannot import plugin module 'nosuchmodule'", "ModuleNotFoundError"]),
+    ("not a module", ["'not a module' is not a module name"]),
+])
+def test_load_plugins_fails_in_one_line(module, words) -> None:
+    with pytest.raises(ml.actuators.PluginLookupError) as caught:
+        ml.load_plugins(module)
+    assert "\n" not in str(caught.value)
     for word in words:
         assert word in str(caught.value)
 

@@ -4,6 +4,7 @@ Public API::
 
     import maniplab as ml
     spec = ml.load_spec("arm.yaml")          # or ml.builtin_spec("erector"); ml.builtin_specs()
+    ml.load_plugins("mypkg.motors")          # before a spec names type: "mypkg.motors:Motor"
     spec2 = spec.with_overrides({"end_effector.mass": 800.0})
     xml = ml.to_mjcf(spec)                   # MJCF text at full float precision
     model = ml.build_model(spec)             # mujoco.MjModel
@@ -11,10 +12,31 @@ Public API::
     runs = ml.sweep(spec, {"end_effector.mass": [3000, 5000]}, out="runs/", duration=2.0)
 """
 
+
 from __future__ import annotations
+
+import os
+import sys
+
+
+def _running_as_main() -> bool:
+    """Whether Python is locating this package to run it (``python -m maniplab``)."""
+    if sys.argv[:1] != ["-m"]:  # what sys.argv[0] is while -m locates its module
+        return False
+    args = list(getattr(sys, "orig_argv", []))
+    module = next((after if arg == "-m" else arg[2:]
+                   for arg, after in zip(args, [*args[1:], ""]) if arg.startswith("-m")), "")
+    return module.split(".")[0] == "maniplab"
+
+
+if _running_as_main() and sys.path[:1] in ([""], [os.getcwd()]):
+    # Python put the current folder first on sys.path: a yaml.py or plugin module there would be
+    # imported in place of the real one. The folder holds data; code comes from installed packages.
+    del sys.path[0]
 
 from importlib.metadata import PackageNotFoundError, version
 
+from maniplab.actuators.registry import load_plugins
 from maniplab.builtin import builtin_spec, builtin_specs, resolve_spec
 from maniplab.control import CascadeController, MinJerkMove, Path, Pose, segment_placement
 from maniplab.control.linearize import linearize
@@ -92,6 +114,7 @@ __all__ = [
     "builtin_specs",
     "crossvalidate",
     "linearize",
+    "load_plugins",
     "load_spec",
     "render",
     "resolve_spec",

@@ -9,7 +9,11 @@ A name is found, in this order, among
        [project.entry-points."maniplab.actuators"]
        dcmotor = "mypkg.motors:GearedDCMotor"
 
-4. ``"module:Class"`` (``Class`` may be dotted: ``module:Outer.Inner``): the module is imported.
+4. ``"module:Class"`` (``Class`` may be dotted: ``module:Outer.Inner``), when the user named the
+   module on purpose: :func:`load_plugins` (the command line's ``--plugin MODULE``), the
+   environment variable ``MANIPLAB_PLUGINS`` (modules, comma-separated), or their own code
+   imported it already. A spec or a run file never makes maniplab import a module: reading data
+   runs no code.
 
 Nothing outside this package asks for a built-in type by name or class: the spec validates an
 actuator's parameters with its class's ``Params``, and every other part of maniplab uses the
@@ -20,6 +24,9 @@ from __future__ import annotations
 
 import dataclasses
 import importlib
+import inspect
+import os
+import sys
 from importlib.metadata import entry_points
 from typing import Any
 
@@ -31,6 +38,9 @@ from maniplab.errors import ManiplabError
 ENTRY_POINT_GROUP = "maniplab.actuators"
 """Entry-point group under which installed packages register actuator plugins."""
 
+PLUGINS_VARIABLE = "MANIPLAB_PLUGINS"
+"""Environment variable naming plugin modules to load, comma-separated."""
+
 BUILTIN: dict[str, type[ActuatorPlugin]] = {"torque": TorqueSource, "hydraulic": HydraulicCylinder}
 """The built-in actuator types by name."""
 
@@ -39,6 +49,7 @@ IDEAL_SOURCE = "torque"
 
 _REGISTRY: dict[str, type[ActuatorPlugin]] = dict(BUILTIN)
 _RESOLVED: dict[str, type[ActuatorPlugin]] = {}
+_LOADED: set[str] = set()  # modules named on purpose (load_plugins)
 
 
 class PluginLookupError(ManiplabError, LookupError):
@@ -70,17 +81,47 @@ def registered() -> dict[str, type[ActuatorPlugin]]:
     return dict(_REGISTRY)
 
 
+def load_plugins(*modules: str) -> None:
+    """Import plugin modules on purpose, so that specs may name their classes as
+    ``"module:Class"`` (and names they :func:`register` on import become known).
+
+    Args:
+        modules: importable module names, e.g. ``"mypkg.motors"``.
+
+    Raises:
+        PluginLookupError: a name is not a module name, or the module cannot be imported.
+    """
+    for module in modules:
+        _load(module)
+
+
+def _load(module: str) -> None:
+    if not all(part.isidentifier() for part in module.split(".")):
+        raise PluginLookupError(f"{module!r} is not a module name; expected e.g. mypkg.motors")
+    try:
+        importlib.import_module(module)
+    except Exception as exc:  # noqa: BLE001 - report any import failure as a lookup failure
+        raise PluginLookupError(
+            f"cannot import plugin module {module!r} ({type(exc).__name__}: {exc})"
+        ) from None
+    _LOADED.add(module)
+
+
+def _named_in_environment() -> list[str]:
+    return [m.strip() for m in os.environ.get(PLUGINS_VARIABLE, "").split(",") if m.strip()]
+
+
 def resolve(name: str) -> type[ActuatorPlugin]:
     """The plugin class a spec's ``type`` names (see the module's search order).
 
     Raises:
-        PluginLookupError: nothing of that name, the module cannot be imported, or the object is
-            not an ActuatorPlugin.
+        PluginLookupError: nothing of that name, the module was not named on purpose or cannot
+            be imported, or the object is not an ActuatorPlugin.
     """
     if name in _REGISTRY:
         return _REGISTRY[name]
     if name not in _RESOLVED:
-        _RESOLVED[name] = _import(name) if ":" in name else _entry_point(name)
+        _RESOLVED[name] = _from_module(name) if ":" in name else _entry_point(name)
     return _RESOLVED[name]
 
 
@@ -99,20 +140,25 @@ def _entry_point(name: str) -> type[ActuatorPlugin]:
     raise PluginLookupError(f"no actuator plugin named {name!r}")
 
 
-def _import(name: str) -> type[ActuatorPlugin]:
+def _from_module(name: str) -> type[ActuatorPlugin]:
+    """The class ``module:Class`` names, from a module loaded on purpose (never imported here
+    because a spec names it)."""
     module_name, _, attr = name.partition(":")
     if not module_name or not attr:
         raise PluginLookupError(f"{name!r} is not of the form 'module:Class'")
-    try:
-        obj: Any = importlib.import_module(module_name)
-    except Exception as exc:  # noqa: BLE001 - report any import failure as a lookup failure
+    if module_name in _named_in_environment() and module_name not in _LOADED:
+        _load(module_name)
+    module = sys.modules.get(module_name)
+    if module is None:
         raise PluginLookupError(
-            f"cannot import module {module_name!r} for actuator plugin {name!r} "
-            f"({type(exc).__name__}: {exc})"
-        ) from None
+            f"{name!r} names module {module_name!r}, which was not loaded; name it with "
+            f"--plugin {module_name} or {PLUGINS_VARIABLE}={module_name} (in Python: "
+            f"ml.load_plugins({module_name!r}))"
+        )
+    obj: Any = module
     for part in attr.split("."):
-        try:
-            obj = getattr(obj, part)
+        try:  # static: a module's __getattr__ could import more
+            obj = inspect.getattr_static(obj, part)
         except AttributeError:
             raise PluginLookupError(
                 f"module {module_name!r} has no {attr!r} (actuator plugin {name!r})"

@@ -18,6 +18,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import os
+import re
 import xml.etree.ElementTree as ET
 from collections.abc import Iterable, Sequence
 from pathlib import Path
@@ -243,7 +244,7 @@ def serialize(s: mujoco.MjSpec, comment: str | None = None) -> str:
     _check_supported(s)
     root = ET.Element("mujoco", model=s.modelname)
     if comment:
-        root.append(ET.Comment(comment))
+        root.append(ET.Comment(comment_text(comment)))
     blank = _blank().spec
     angle = {"angle": "degree" if s.compiler.degree else "radian"}
     ET.SubElement(root, "compiler", angle | _attributes(s.compiler, _COMPILER, blank.compiler))
@@ -256,6 +257,15 @@ def serialize(s: mujoco.MjSpec, comment: str | None = None) -> str:
     _write_actuators(root, s.actuators)
     ET.indent(root, space="  ")
     return ET.tostring(root, encoding="unicode") + "\n"
+
+
+def comment_text(text: str) -> str:
+    """``text`` made safe inside an XML comment (``<!--text-->``), which cannot hold ``--`` nor
+    end in ``-``: control and other unprintable characters are dropped, and every ``-`` that is
+    followed by another gets a space after it (ElementTree writes a comment's text as it is)."""
+    printable = "".join(c for c in text if c.isprintable() or c == " ")
+    spaced = re.sub(r"-(?=-)", "- ", printable)
+    return spaced + " " if spaced.endswith("-") else spaced
 
 
 def _check_supported(s: mujoco.MjSpec) -> None:

@@ -8,17 +8,31 @@ the others build on, so it imports nothing of maniplab but :mod:`maniplab.errors
 """
 
 from maniplab.schema.dataclass import CONFIG, validated
-from maniplab.schema.fields import NonNegative, Positive, Real, UnitInterval, Vec3, plain, sequence
+from maniplab.schema.fields import (
+    LARGEST,
+    SMALLEST,
+    NonNegative,
+    Positive,
+    Real,
+    UnitInterval,
+    Vec3,
+    not_vanishing,
+    plain,
+    sequence,
+)
 from maniplab.schema.translate import describe, translate_errors, unknown_key_problem
 
 __all__ = [
     "CONFIG",
+    "LARGEST",
+    "SMALLEST",
     "NonNegative",
     "Positive",
     "Real",
     "UnitInterval",
     "Vec3",
     "describe",
+    "not_vanishing",
     "plain",
     "sequence",
     "translate_errors",

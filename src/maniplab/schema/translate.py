@@ -226,6 +226,12 @@ def describe(value: Any) -> str:
     return f"{text} ({_KINDS.get(type(value), type(value).__name__)})"
 
 
+def _shortened(text: Any) -> str:
+    """``repr`` of ``text``, cut to 40 characters."""
+    shown = repr(text)
+    return shown if len(shown) <= 40 else shown[:37] + "..."
+
+
 def choices(values: Sequence[str]) -> str:
     """``'a', 'b' or 'c'``."""
     quoted = [f"'{v}'" for v in values]
@@ -313,8 +319,11 @@ def problem_text(error: Any, loc: Loc, siblings: Sequence[str], node: Any = None
     if kind == "string_too_short":
         return "expected a non-empty name, got ''"
     if kind == "string_pattern_mismatch":
-        return (f"{value!r} is not a valid name; expected letters, digits, '_' and '-', "
+        return (f"{_shortened(value)} is not a valid name; expected letters, digits, '_' and '-', "
                 "starting with a letter or '_'")
+    if kind == "string_too_long":
+        return (f"the name {_shortened(value)} has {len(value)} characters; expected at most "
+                f"{ctx.get('max_length')}")
     if kind in ("tuple_type", "list_type"):
         return _list_problem(node, value)
     if kind in ("dataclass_type", "model_attributes_type", "dict_type", "dataclass_exact_type"):

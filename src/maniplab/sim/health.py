@@ -28,9 +28,11 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from maniplab.friction import FrictionMode
-from maniplab.spec import model_of
+from maniplab.spec import Joint, model_of
+from maniplab.spec.actuator import UnresolvedActuator
 
 if TYPE_CHECKING:
+    from maniplab.actuators import ActuatorPlugin
     from maniplab.sim.run import Run
 
 SATURATION = 0.05
@@ -119,9 +121,15 @@ def assess(run: Run) -> Health:
     return Health(tuple(findings))
 
 
+def _model(joint: Joint) -> ActuatorPlugin | None:
+    """The joint's actuator model; None for a stored run's plugin that is not loaded (its limits
+    and bounds are then unknown, and not checked)."""
+    return None if isinstance(joint.actuator, UnresolvedActuator) else model_of(joint)
+
+
 def _limits(run: Run) -> np.ndarray:
-    return np.array([np.inf if (limit := model_of(j).command_limit) is None else limit
-                     for j in run.spec.joints])
+    return np.array([np.inf if (model := _model(j)) is None or model.command_limit is None
+                     else model.command_limit for j in run.spec.joints])
 
 
 def _saturation(run: Run, hold: np.ndarray, span: float) -> list[Finding]:
@@ -145,7 +153,8 @@ def _bounds(run: Run) -> list[Finding]:
     out = []
     for j, joint in enumerate(run.spec.joints):
         seen = set()
-        for bound in sorted(model_of(joint).bounds(), key=lambda b: -b.limit):
+        model = _model(joint)
+        for bound in sorted(model.bounds() if model else [], key=lambda b: -b.limit):
             if bound.state not in run or bound.state in seen:
                 continue
             values = np.abs(np.asarray(run[bound.state])[:, j])

@@ -4,6 +4,10 @@ A built-in type's parameters carry their ``type`` (``HydraulicActuator(type="hyd
 any other plugin's parameters are wrapped with theirs in a :class:`PluginActuator`. Either way the
 value has ``.type`` and the parameters as attributes, :func:`params_of` gives the parameters
 alone, and :func:`model_of` makes the joint's actuator model.
+
+Data that needs no plugin (a run file's stored spec) is validated with the context
+``{DEFER_PLUGINS: True}``: an actuator whose plugin is not available is then kept as an
+:class:`UnresolvedActuator`, and only making its model fails.
 """
 
 from __future__ import annotations
@@ -13,7 +17,7 @@ import functools
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Annotated, Any
 
-from pydantic import PlainValidator, TypeAdapter, ValidationError
+from pydantic import PlainValidator, TypeAdapter, ValidationError, ValidationInfo
 from pydantic_core import PydanticCustomError
 
 from maniplab.actuators.base import ActuatorPlugin
@@ -47,19 +51,51 @@ class PluginActuator:
         return getattr(self.params, name)
 
 
+DEFER_PLUGINS = "defer_plugins"
+"""Key of the validation context: true keeps an actuator of an unavailable plugin unresolved."""
+
+
+@dataclasses.dataclass(frozen=True)
+class UnresolvedActuator:
+    """An actuator of a plugin that was not available when stored data (a run file) was read.
+
+    Its parameters are kept as stored, unvalidated; the spec lists, compares and writes as
+    before, and :func:`model_of` fails naming the plugin to load.
+
+    Attributes:
+        type: the plugin's name as written in the spec.
+        params: the parameters as stored (plain data).
+        problem: why the plugin was not available.
+    """
+
+    type: str
+    params: Mapping[str, Any] = dataclasses.field(hash=False)
+    problem: str = dataclasses.field(compare=False, hash=False)
+
+
 def params_of(actuator: Any) -> Any:
-    """The parameters of an actuator value (the plugin's ``Params`` instance)."""
-    return actuator.params if isinstance(actuator, PluginActuator) else actuator
+    """The parameters of an actuator value (the plugin's ``Params`` instance; stored data for an
+    :class:`UnresolvedActuator`)."""
+    return actuator.params if isinstance(actuator, (PluginActuator, UnresolvedActuator)) else actuator
 
 
 def model_of(joint: Joint) -> ActuatorPlugin:
-    """The actuator model of ``joint``, made from its spec (built-in or plugin)."""
-    return resolve(joint.actuator.type)(params_of(joint.actuator), joint)
+    """The actuator model of ``joint``, made from its spec (built-in or plugin).
+
+    Raises:
+        PluginLookupError: the actuator is an :class:`UnresolvedActuator`.
+    """
+    actuator = joint.actuator
+    if isinstance(actuator, UnresolvedActuator):
+        raise PluginLookupError(f"joint {joint.name}, actuator: {actuator.problem}")
+    return resolve(actuator.type)(params_of(actuator), joint)
 
 
 def actuator_dict(actuator: Any) -> dict[str, Any]:
     """``{"type": ..., <parameters>}`` as written in a spec file."""
-    fields = plain(dataclasses.asdict(params_of(actuator)))
+    params = params_of(actuator)
+    fields = plain(dict(params) if isinstance(actuator, UnresolvedActuator)
+                   else dataclasses.asdict(params))
     return {"type": actuator.type, **{k: v for k, v in fields.items() if k != "type"}}
 
 
@@ -78,15 +114,19 @@ def _has_type_field(params: type) -> bool:
 
 
 def _validated(value: Any) -> bool:
-    if isinstance(value, PluginActuator):
+    if isinstance(value, (PluginActuator, UnresolvedActuator)):
         return True
     kind = getattr(value, "type", None)
     return (dataclasses.is_dataclass(value) and isinstance(kind, str)
             and getattr(resolve(kind), "Params", None) is type(value))
 
 
-def validate_actuator(value: Any) -> Any:
+def validate_actuator(value: Any, info: ValidationInfo) -> Any:
     """Validate a joint's ``actuator`` section (a mapping with ``type``) into its value.
+
+    Args:
+        value: the section.
+        info: pydantic's validation info; its context may set :data:`DEFER_PLUGINS`.
 
     Raises:
         PydanticCustomError: of kind ``spec_problem``, worded for the spec file, with the field
@@ -106,12 +146,11 @@ def validate_actuator(value: Any) -> Any:
     try:
         plugin = resolve(name)
     except PluginLookupError as exc:
-        if ":" in name or "no actuator plugin named" not in str(exc):
-            raise _problem(str(exc), "type") from None
-        raise _problem(
-            f"unknown actuator type {name!r}; expected {choices(list(BUILTIN))}, or a plugin as "
-            f"'module:Class' or a registered name{did_you_mean(name, list(BUILTIN))}", "type"
-        ) from None
+        problem = _lookup_problem(name, exc)
+        if (info.context or {}).get(DEFER_PLUGINS):
+            stored = {k: v for k, v in value.items() if k != "type"}
+            return UnresolvedActuator(type=name, params=stored, problem=problem)
+        raise _problem(problem, "type") from None
     params = plugin.Params
     typed = _has_type_field(params)
     values = dict(value) if typed else {k: v for k, v in value.items() if k != "type"}
@@ -121,6 +160,13 @@ def validate_actuator(value: Any) -> Any:
         error = translate_errors(exc.errors(), root=params)
         raise _problem(error.problem, error.field) from None
     return validated if typed else PluginActuator(type=name, params=validated)
+
+
+def _lookup_problem(name: str, exc: PluginLookupError) -> str:
+    if ":" in name or "no actuator plugin named" not in str(exc):
+        return str(exc)
+    return (f"unknown actuator type {name!r}; expected {choices(list(BUILTIN))}, or a plugin as "
+            f"'module:Class' or a registered name{did_you_mean(name, list(BUILTIN))}")
 
 
 Actuator = Annotated[Any, PlainValidator(validate_actuator)]

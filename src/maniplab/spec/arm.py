@@ -69,6 +69,7 @@ from maniplab.schema import (
     Real,
     Vec3,
     describe,
+    not_vanishing,
     plain,
     sequence,
     translate_errors,
@@ -76,11 +77,17 @@ from maniplab.schema import (
 )
 from maniplab.schema.translate import INTERNAL, line_of, unknown_key_problem
 from maniplab.spec import overrides as _overrides
-from maniplab.spec.actuator import Actuator, actuator_dict
+from maniplab.spec.actuator import DEFER_PLUGINS, Actuator, actuator_dict
 from maniplab.spec.control import ControlSpec
 from maniplab.spec.yaml_io import Loc, dump_yaml
 
 _NAME_PATTERN = r"^[A-Za-z_][A-Za-z0-9_\-]*$"
+NAME_LENGTH = 64
+"""The longest joint name, characters (a name is also a MuJoCo element's name and a column
+label)."""
+
+Mass = Annotated[NonNegative, AfterValidator(not_vanishing)]
+"""A mass, kg: 0 (none), or at least schema.SMALLEST (MuJoCo divides by it)."""
 
 
 class JointType(str, enum.Enum):
@@ -191,7 +198,7 @@ class Body:
 
     length: NonNegative = 0.0
     direction: Annotated[Vec3, AfterValidator(_unit_direction)] = (1.0, 0.0, 0.0)
-    mass: NonNegative = 0.0
+    mass: Mass = 0.0
     com: Vec3 | None = None
     inertia: Inertia | None = None
 
@@ -199,14 +206,8 @@ class Body:
         e = np.asarray(self.direction)
         if self.com is None:
             object.__setattr__(self, "com", tuple(float(c) for c in 0.5 * self.length * e))
-        if self.inertia is None:
-            with np.errstate(over="ignore", invalid="ignore"):
-                rod = self.mass * np.float64(self.length) ** 2 / 12.0 * (np.eye(3) - np.outer(e, e))
-            if not np.all(np.isfinite(rod)):
-                raise ValueError(
-                    f"the default inertia m L²/12 of a {self.mass:g} kg, {self.length:g} m body "
-                    "overflows; expected a smaller mass or length, or an explicit inertia"
-                )
+        if self.inertia is None:  # finite: mass and length are bounded (schema.LARGEST)
+            rod = self.mass * self.length**2 / 12.0 * (np.eye(3) - np.outer(e, e))
             object.__setattr__(self, "inertia", _inertia_tuple(rod))
 
     @property
@@ -233,7 +234,7 @@ class Joint:
 
     EXAMPLE: ClassVar[str] = "name: q1, type: R, axis: z"
 
-    name: Annotated[str, Strict(), Field(pattern=_NAME_PATTERN)]
+    name: Annotated[str, Strict(), Field(pattern=_NAME_PATTERN, max_length=NAME_LENGTH)]
     type: Annotated[JointType, BeforeValidator(_joint_type_alias)]
     axis: Annotated[Axis, BeforeValidator(_axis_alias)]
     limits: Annotated[tuple[Real, Real], BeforeValidator(sequence)] | None = None
@@ -277,7 +278,7 @@ class EndEffector:
 
     EXAMPLE: ClassVar[str] = "mass: 500.0"
 
-    mass: NonNegative = 0.0
+    mass: Mass = 0.0
     offset: Vec3 = (0.0, 0.0, 0.0)
     size: Annotated[tuple[Positive, Positive, Positive], BeforeValidator(sequence)] | None = None
 
@@ -332,7 +333,8 @@ class ManipulatorSpec:
     # --- construction ------------------------------------------------------------------------
     @classmethod
     def from_dict(cls, data: Any, *, source: str | None = None,
-                  lines: Mapping[Loc, int] | None = None) -> ManipulatorSpec:
+                  lines: Mapping[Loc, int] | None = None,
+                  defer_plugins: bool = False) -> ManipulatorSpec:
         """Validate plain data (as read from YAML) into a spec, raising a one-line SpecError.
 
         Args:
@@ -340,8 +342,11 @@ class ManipulatorSpec:
             source: the file it came from, for messages (kept as ``spec.source``).
             lines: map from data locations to line numbers (``yaml_io.parse_yaml``), for
                 messages.
+            defer_plugins: keep an actuator whose plugin is not available as an
+                :class:`~maniplab.spec.actuator.UnresolvedActuator` instead of failing (for
+                stored data, such as a run file's spec, that is read without simulating).
         """
-        return _from_dict(data, source, lines or {})
+        return _from_dict(data, source, lines or {}, defer_plugins)
 
     def to_dict(self) -> dict[str, Any]:
         """Plain dict (lists, floats, strings) with every default written out; from_dict inverts it."""
@@ -397,7 +402,8 @@ class ManipulatorSpec:
 _TOP_KEYS = ("name", "gravity", "joints", "end_effector", "control")
 
 
-def _from_dict(data: Any, source: str | None, lines: Mapping[Loc, int]) -> ManipulatorSpec:
+def _from_dict(data: Any, source: str | None, lines: Mapping[Loc, int],
+               defer_plugins: bool) -> ManipulatorSpec:
     if not isinstance(data, dict):
         raise SpecError(f"expected a mapping with keys {', '.join(_TOP_KEYS)}, got {describe(data)}",
                         file=source)
@@ -407,7 +413,8 @@ def _from_dict(data: Any, source: str | None, lines: Mapping[Loc, int]) -> Manip
     named = _with_default_names(data)
     _check_duplicate_names(named, data, source, lines)
     try:
-        spec = _ADAPTER.validate_python({**named, "source": source})
+        spec = _ADAPTER.validate_python({**named, "source": source},
+                                        context={DEFER_PLUGINS: defer_plugins})
     except ValidationError as exc:
         raise translate_errors(exc.errors(), root=ManipulatorSpec, data=named, source=source,
                                lines=lines) from None

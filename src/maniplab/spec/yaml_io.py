@@ -2,6 +2,11 @@
 
 ``1e-11`` is a float (YAML 1.1 would read it as a string), and a key given twice in one mapping
 is an error. :func:`parse_yaml` also maps each location in the data to its line, for messages.
+
+Anchors and aliases (``&base``, ``*base``, ``<<: *base``) work, but a document whose aliases
+expand to more than :data:`MAX_VALUES` values (a "billion laughs" bomb of nested aliases: a few
+hundred bytes that expand to gigabytes) or that refers to itself is refused before it is
+constructed.
 """
 
 from __future__ import annotations
@@ -18,13 +23,38 @@ from maniplab.errors import SpecError
 Loc = tuple[Any, ...]
 """A location in parsed data: keys and list indices from the top."""
 
+MAX_VALUES = 100_000
+"""The most values (scalars, lists, mappings) a document may hold with its aliases expanded; a
+spec holds a few hundred."""
+
+
+_MERGE = "tag:yaml.org,2002:merge"
+
+
+class _TooLarge(Exception):
+    """The document holds more than MAX_VALUES values, counting aliases expanded."""
+
+    def __init__(self, mark: yaml.Mark) -> None:
+        super().__init__()
+        self.line = mark.line + 1
+
 
 class _Loader(yaml.SafeLoader):
-    """Safe loader with YAML 1.2 floats and duplicate-key detection."""
+    """Safe loader with YAML 1.2 floats, duplicate-key detection, and at most MAX_VALUES nodes."""
+
+    _nodes = 0
+
+    def compose_node(self, parent: yaml.Node | None, index: Any) -> yaml.Node | None:
+        self._nodes += 1  # an alias counts as one here; _check_expansion counts what it repeats
+        if self._nodes > MAX_VALUES:
+            raise _TooLarge(self.peek_event().start_mark)
+        return super().compose_node(parent, index)
 
     def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
         seen: set[Any] = set()
         for key_node, _ in node.value:
+            if key_node.tag == _MERGE:  # '<<: *base': merged by SafeLoader, may be overridden
+                continue
             key = self.construct_object(key_node, deep=deep)
             if isinstance(key, typing.Hashable) and key in seen:
                 raise yaml.constructor.ConstructorError(
@@ -72,6 +102,8 @@ def parse_yaml(text: str, file: str | None = None) -> tuple[Any, dict[Loc, int]]
         loader = _Loader(text)
         try:  # parse once: the node tree gives the line numbers, and constructs the data
             node = loader.get_single_node()
+            if node is not None:
+                _check_expansion(node, file)
             data = loader.construct_document(node) if node is not None else None
         finally:
             loader.dispose()
@@ -91,10 +123,53 @@ def parse_yaml(text: str, file: str | None = None) -> tuple[Any, dict[Loc, int]]
         raise SpecError(f"invalid YAML: {' '.join(str(exc).split())}", file=file) from None
     except RecursionError:
         raise SpecError("invalid YAML: nested too deeply", file=file) from None
+    except _TooLarge as exc:
+        raise SpecError(f"the YAML holds more than {MAX_VALUES} values (an alias repeats all "
+                        "that its anchor holds); a spec holds a few hundred", file=file,
+                        line=exc.line) from None
     lines: dict[Loc, int] = {}
     if node is not None:
         _record_lines(node, (), lines)
     return data, lines
+
+
+def _check_expansion(node: yaml.Node, file: str | None) -> None:
+    """Refuse a node graph that expands to more than MAX_VALUES values (raising _TooLarge), or
+    that has a cycle (SpecError).
+
+    An alias is the node of its anchor, shared: the graph is small, its expansion (which the
+    spec's validation and ``_record_lines`` walk) may not be. Each node's expanded size is
+    counted once.
+    """
+    sizes: dict[int, int] = {}
+    open_nodes: set[int] = set()
+
+    def size(n: yaml.Node) -> int:
+        if id(n) in sizes:
+            return sizes[id(n)]
+        if id(n) in open_nodes:
+            raise SpecError("invalid YAML: an alias refers to an anchor that contains it (a "
+                            "recursive structure); expected plain data", file=file,
+                            line=n.start_mark.line + 1)
+        open_nodes.add(id(n))
+        total = 1
+        for child in _children(n):
+            total += size(child)
+            if total > MAX_VALUES:
+                raise _TooLarge(n.start_mark)
+        open_nodes.discard(id(n))
+        sizes[id(n)] = total
+        return total
+
+    size(node)
+
+
+def _children(node: yaml.Node) -> list[yaml.Node]:
+    if isinstance(node, yaml.MappingNode):
+        return [child for pair in node.value for child in pair]
+    if isinstance(node, yaml.SequenceNode):
+        return list(node.value)
+    return []
 
 
 def _record_lines(node: yaml.Node, loc: Loc, lines: dict[Loc, int]) -> None:
