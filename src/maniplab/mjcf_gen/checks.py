@@ -13,6 +13,9 @@ body, and arms that move real mass give values many orders of magnitude above th
 
 from __future__ import annotations
 
+import threading
+import warnings
+
 import mujoco
 import numpy as np
 
@@ -35,6 +38,33 @@ def compile_checked(s: mujoco.MjSpec, spec: ManipulatorSpec) -> mujoco.MjModel:
         detail = "; ".join(line.strip() for line in str(exc).splitlines() if line.strip())
         detail = detail.removeprefix("Error: ")
         raise ModelError(f"{_where(spec)}MuJoCo cannot compile the model: {detail}") from None
+
+
+def compile_arm(s: mujoco.MjSpec, spec: ManipulatorSpec) -> mujoco.MjModel:
+    """:func:`compile_checked`, then :func:`check_drives_mass`.
+
+    MuJoCo warns while compiling an arm whose M(q) is singular at its home pose; for an arm the
+    check refuses, its message says more, so MuJoCo's warnings are shown only for an arm that
+    passes.
+    """
+    model, caught = compile_quietly(s, spec)
+    check_drives_mass(model, spec)
+    for warning in caught:
+        warnings.warn_explicit(warning.message, warning.category, warning.filename,
+                               warning.lineno)
+    return model
+
+
+def compile_quietly(s: mujoco.MjSpec,
+                    spec: ManipulatorSpec) -> tuple[mujoco.MjModel, list[warnings.WarningMessage]]:
+    """:func:`compile_checked`, and the warnings it gave instead of showing them (caught in the
+    main thread only: Python's warning filters are process-global, other threads leave them)."""
+    if threading.current_thread() is not threading.main_thread():
+        return compile_checked(s, spec), []
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        model = compile_checked(s, spec)
+    return model, caught
 
 
 def check_drives_mass(model: mujoco.MjModel, spec: ManipulatorSpec) -> None:

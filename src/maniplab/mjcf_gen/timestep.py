@@ -127,11 +127,14 @@ def spring_modes(spec: ManipulatorSpec, model: mujoco.MjModel) -> SpringModes:
     the sampled poses, the joints without a spring left out."""
     actuators = [model_of(j) for j in spec.joints]
     qs = poses(spec, POSES)
+    masses = mass_matrices(model, qs)
+    regular = [i for i, m in enumerate(masses) if np.linalg.matrix_rank(m) == len(m)]
+    qs, masses = qs[regular], masses[regular]  # a pose that happens to be singular: left out
     k = np.array([[a.stiffness(float(x)) for a, x in zip(actuators, q)] for q in qs])
-    sprung = np.flatnonzero(k.any(axis=0))
+    sprung = np.flatnonzero(k.any(axis=0)) if len(qs) else np.zeros(0, dtype=int)
     if not sprung.size:
         return SpringModes(0.0, 0.0, 0)
-    inverse = np.linalg.inv(mass_matrices(model, qs))[:, sprung][:, :, sprung]
+    inverse = np.linalg.inv(masses)[:, sprung][:, :, sprung]
     root = np.sqrt(k[:, sprung])
     values, vectors = np.linalg.eigh(root[:, :, None] * inverse * root[:, None, :])
     pose = int(np.argmax(values[:, -1]))

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import zipfile
 import zlib
 from importlib.metadata import PackageNotFoundError, version
@@ -165,6 +166,7 @@ def _array(path: Path, data: np.lib.npyio.NpzFile, name: str, kinds: str = "biuf
     if name not in data.files:
         raise _unreadable(path, f"no {name!r} array")
     try:
+        _check_size(data, name)
         values = data[name]
     except _READ_ERRORS as exc:
         raise _unreadable(path, f"{name!r}: {_why(exc)}") from None
@@ -174,7 +176,21 @@ def _array(path: Path, data: np.lib.npyio.NpzFile, name: str, kinds: str = "biuf
     return values
 
 
-_READ_ERRORS = (OSError, ValueError, zipfile.BadZipFile, EOFError, zlib.error)
+def _check_size(data: np.lib.npyio.NpzFile, name: str) -> None:
+    """Raise ValueError when member ``name`` declares more values than it holds (numpy would
+    allocate what the header claims, e.g. 8 TB, before finding out)."""
+    info = data.zip.getinfo(f"{name}.npy")
+    with data.zip.open(info) as member:
+        major, _ = np.lib.format.read_magic(member)
+        read = (np.lib.format.read_array_header_1_0 if major == 1
+                else np.lib.format.read_array_header_2_0)
+        shape, _, dtype = read(member)
+    declared = math.prod(shape) * dtype.itemsize
+    if declared > info.file_size:
+        raise ValueError(f"it claims {declared:,} bytes of data in {info.file_size:,}")
+
+
+_READ_ERRORS = (OSError, ValueError, zipfile.BadZipFile, EOFError, zlib.error, MemoryError)
 
 
 def _unreadable(path: Path, reason: str) -> RunFileError:
