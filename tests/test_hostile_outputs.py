@@ -326,7 +326,7 @@ CORRUPTIONS: dict[str, tuple[Callable[[Path], None], bool, str]] = {
     "foreign npz": (lambda p: np.savez(p, x=np.arange(3)), True, "no 'header' array"),
     "object array": (lambda p: np.savez(p, header=np.array([{"a": 1}], dtype=object)), True,
                      "'header'"),
-    "pickled member": (pickled_member, True, "'header' is not a plain array"),
+    "pickled member": (pickled_member, True, "'header'"),
     "wrong format": (lambda p: rewrite(p, edit=wrong_format), True, "unknown run format"),
     "invalid spec": (lambda p: rewrite(p, edit=bad_spec), True, "the stored spec is invalid"),
     "hash mismatch": (lambda p: rewrite(p, t=np.linspace(0, 1, 11), rehash=False), False,

@@ -15,6 +15,7 @@ import importlib.util
 import os
 import shlex
 import shutil
+import signal
 import subprocess
 import sysconfig
 import tempfile
@@ -65,6 +66,38 @@ def compiler_candidates() -> list[tuple[str, ...]]:
         if command and shutil.which(command[0]) and command not in out:
             out.append(command)
     return out
+
+
+def run_compiler(argv: list[str], timeout: float | None = None) -> subprocess.CompletedProcess[str]:
+    """Run a compiler command, capturing its output (text).
+
+    The compiler runs in a process group of its own: Ctrl-C at the terminal reaches only this
+    process, whose KeyboardInterrupt (or the timeout, s) then kills the whole group (the driver
+    and its cc1, as and ld) and reaps the driver before it propagates.
+
+    Raises:
+        subprocess.TimeoutExpired: after ``timeout`` seconds.
+    """
+    proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    try:
+        stdout, stderr = proc.communicate(timeout=timeout)
+    except BaseException:
+        _kill_group(proc)
+        raise
+    return subprocess.CompletedProcess(argv, proc.returncode, stdout, stderr)
+
+
+def _kill_group(proc: subprocess.Popen[str]) -> None:
+    """SIGKILL the process group that ``proc`` leads, reap ``proc`` and close its pipes."""
+    try:
+        os.killpg(proc.pid, signal.SIGKILL)
+    except ProcessLookupError:
+        pass  # the group has already ended
+    proc.wait()
+    for stream in (proc.stdout, proc.stderr):
+        if stream is not None:
+            stream.close()
 
 
 def _mujoco_dir() -> Path:
@@ -120,7 +153,7 @@ def library_path() -> Path:
             *[str(path) for path in sources() if path.suffix == ".c"], "-o", tmp,
             f"-L{mujoco_dir}", f"-l:{lib.name}", f"-Wl,-rpath,{mujoco_dir}", "-lm"]
     try:
-        proc = subprocess.run(argv, capture_output=True, text=True, check=False, timeout=300)
+        proc = run_compiler(argv, timeout=300)
         if proc.returncode != 0:
             last = (proc.stderr.strip().splitlines() or ["(no message)"])[-1]
             raise NativeBuildError(f"maniplab's MuJoCo plugins: the C compiler failed: {last}")

@@ -21,7 +21,10 @@ from maniplab.cli import (
 )
 from maniplab.cli.common import EXIT_BAD_INPUT, Parser
 
-__all__ = ["EXIT_BAD_INPUT", "build_parser", "main"]
+__all__ = ["EXIT_BAD_INPUT", "EXIT_INTERRUPTED", "build_parser", "main"]
+
+EXIT_INTERRUPTED = 130
+"""Exit status after Ctrl-C: 128 + SIGINT, as shells report a process that SIGINT ended."""
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -40,17 +43,31 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``maniplab`` console script; returns the exit status."""
+    """Entry point of the ``maniplab`` console script; returns the exit status.
+
+    Ctrl-C anywhere in a command (its workers, threads and child processes are stopped by the
+    job itself) ends it with one line on stderr and status 130, as a shell reports a SIGINT.
+    """
     os.environ.setdefault("MUJOCO_GL", "egl")
-    parser = build_parser()
-    args, extra = parser.parse_known_args(argv)
-    if args.command is None:
-        if extra:
-            parser.error(f"unrecognized arguments: {' '.join(extra)}")
-        parser.print_help()
-        return EXIT_BAD_INPUT
-    if extra:  # argparse would blame the top-level parser; the sub-command's help is the one wanted
-        _subparser(parser, args.command).error(f"unrecognized arguments: {' '.join(extra)}")
+    args = argparse.Namespace(command=None)
+    try:
+        parser = build_parser()
+        _, extra = parser.parse_known_args(argv, namespace=args)
+        if args.command is None:
+            if extra:
+                parser.error(f"unrecognized arguments: {' '.join(extra)}")
+            parser.print_help()
+            return EXIT_BAD_INPUT
+        if extra:  # argparse would blame the top-level parser; the sub-command's help is wanted
+            _subparser(parser, args.command).error(f"unrecognized arguments: {' '.join(extra)}")
+        return _run(args)
+    except KeyboardInterrupt:
+        print(f"maniplab {args.command or ''}".rstrip() + ": interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+
+
+def _run(args: argparse.Namespace) -> int:
+    """Run the sub-command; bad input becomes one line on stderr and status 2."""
     from maniplab.errors import ManiplabError
 
     try:
@@ -62,9 +79,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"maniplab {args.command}: {exc.strerror or exc}: {exc.filename or ''}".rstrip(": "),
               file=sys.stderr)
         return EXIT_BAD_INPUT
-    except KeyboardInterrupt:
-        print(f"maniplab {args.command}: interrupted", file=sys.stderr)
-        return 130
 
 
 def _subparser(parser: argparse.ArgumentParser, command: str) -> argparse.ArgumentParser:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import shutil
 import sys
 import time
 from collections.abc import Callable
@@ -74,8 +75,22 @@ class Demo:
         ]
 
     def run(self) -> Path:
-        """Every stage, then the report; returns the report's path."""
+        """Every stage, then the report; returns the report's path.
+
+        Raises:
+            KeyboardInterrupt: Ctrl-C; the output folder is removed if this run created it (in
+                a folder that was there, the files already written stay, each one whole).
+        """
+        created = not self.out.exists()
         self.out.mkdir(parents=True, exist_ok=True)
+        try:
+            return self._run()
+        except KeyboardInterrupt:
+            if created:
+                shutil.rmtree(self.out, ignore_errors=True)
+            raise
+
+    def _run(self) -> Path:
         start = time.perf_counter()
         for k, (name, stage) in enumerate(self.stages, 1):
             began = time.perf_counter()
@@ -214,6 +229,7 @@ class Demo:
     def crossval(self) -> None:
         result = ml.crossvalidate(self.spec, duration=self.settings.crossval_s)
         image = save_figure(compare([result.mujoco, result.analytic], signals=["q"],
+                                    joints=list(self.spec.joint_names),
                                     labels=["MuJoCo plant (RK4)", "analytic model (scipy DOP853)"],
                                     title="erector, ideal actuators, falling under gravity"),
                             self.out / "crossval.png")
@@ -239,16 +255,18 @@ class Demo:
         grid = ml.write_video(ml.viz.iter_grid([cascade, pid], width=width, height=height,
                                                fps=fps, progress=False),
                               self.out / "cascade_vs_pid.mp4", fps=fps)
-        poster = self.out / "closed_loop_frame.png"
-        frame = ml.render(cascade, width=width, height=height, fps=1.0 / cascade.t[-1],
-                          progress=False)[-1]
-        _write_png(frame, poster)
+        once = 1.0 / cascade.t[-1]  # a frame rate that renders the first and the last frame
+        posters = [self.out / "closed_loop_frame.png", self.out / "cascade_vs_pid_frame.png"]
+        _write_png(ml.render(cascade, width=width, height=height, fps=once, progress=False)[-1],
+                   posters[0])
+        _write_png(list(ml.viz.iter_grid([cascade, pid], width=width, height=height, fps=once,
+                                         progress=False))[-1], posters[1])
         self.sections.append(Section(
             "Videos",
             "The closed-loop run was rendered offscreen with MuJoCo (joints coloured by their "
             "stick/slip state, the end-effector path traced), and both controllers side by side.",
             figures=[("videos", f"{single.name}, {grid.name} ({width}x{height}, {fps:g} fps)")],
-            videos=[single, grid], poster=poster))
+            videos=[single, grid], posters=posters))
 
     def report(self) -> Path:
         return write_report(

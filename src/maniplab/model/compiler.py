@@ -9,7 +9,7 @@ import subprocess
 import sysconfig
 from pathlib import Path
 
-from maniplab_native.build import compiler_candidates
+from maniplab_native.build import compiler_candidates, run_compiler
 
 #: Flags: optimise; keep IEEE semantics (no fused multiply-add contraction, so C and the Python
 #: fallback evaluate the same operations); -fno-math-errno only lets sin/cos be merged into sincos.
@@ -50,8 +50,7 @@ def find_compiler() -> Compiler | None:
     """
     for command in compiler_candidates():
         try:
-            proc = subprocess.run([*command, "--version"], capture_output=True, text=True,
-                                  timeout=30, check=False)
+            proc = run_compiler([*command, "--version"], timeout=30)
         except (OSError, subprocess.SubprocessError):
             continue
         if proc.returncode == 0:
@@ -88,11 +87,16 @@ def compile_shared(compiler: Compiler, source: Path, output: Path, *, extension:
 
     Raises:
         CompileError: with the compiler's message when compilation fails.
+        KeyboardInterrupt: Ctrl-C; the compiler is killed at once and ``output`` removed.
     """
     argv = [*compiler.command, *CFLAGS, str(source), "-o", str(output)]
     if extension:
         argv += ["-DML_PYTHON", f"-I{compiler.python_include}", f"-I{compiler.numpy_include}"]
     argv.append("-lm")
-    proc = subprocess.run(argv, capture_output=True, text=True, check=False)
+    try:
+        proc = run_compiler(argv)
+    except BaseException:  # Ctrl-C: the compiler is killed; leave no half-written library
+        output.unlink(missing_ok=True)
+        raise
     if proc.returncode != 0:
         raise CompileError(f"C compilation failed ({shlex.join(argv)}):\n{proc.stderr[-4000:]}")

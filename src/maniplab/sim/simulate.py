@@ -24,6 +24,7 @@ from maniplab.sim.plant import Plant, SpecLike, integrator_name
 from maniplab.sim.run import Run
 from maniplab.sim.signals import Signal, as_signal
 from maniplab.sim.state import PlantState
+from maniplab.workers import check_cancelled
 
 Controller = Callable[[float, PlantState], Any]
 
@@ -95,6 +96,7 @@ def simulate(spec_or_plant: SpecLike | Plant, *, inputs: Mapping[str | int, Any]
     try:
         with plant.scope():
             while loop.go():
+                check_cancelled()  # Ctrl-C reaches only the main thread; a sweep's threads stop here
                 bar.step(f"t = {plant.t:.3g} s")
     finally:
         bar.close()

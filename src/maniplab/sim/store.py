@@ -179,8 +179,10 @@ def _array(path: Path, data: np.lib.npyio.NpzFile, name: str, kinds: str = "biuf
 def _check_size(data: np.lib.npyio.NpzFile, name: str) -> None:
     """Raise ValueError when member ``name`` declares more values than it holds (numpy would
     allocate what the header claims, e.g. 8 TB, before finding out)."""
-    info = data.zip.getinfo(f"{name}.npy")
-    with data.zip.open(info) as member:
+    archive = data.zip
+    assert archive is not None  # an open NpzFile
+    info = archive.getinfo(f"{name}.npy")
+    with archive.open(info) as member:
         major, _ = np.lib.format.read_magic(member)
         read = (np.lib.format.read_array_header_1_0 if major == 1
                 else np.lib.format.read_array_header_2_0)

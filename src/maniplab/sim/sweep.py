@@ -8,16 +8,19 @@ rollout, stepping plain MuJoCo, cannot apply). Otherwise they run on local proce
 (``concurrent.futures.ProcessPoolExecutor``). Any ``concurrent.futures.Executor`` can be given
 instead, or a ``dask.distributed.Client`` for a cluster (its ``get_executor()`` is used). Runs
 travel back to the caller, which writes them, so workers need no shared disk. A variant that
-fails is reported with its parameters and does not stop the others.
+fails is reported with its parameters and does not stop the others. Ctrl-C (or any error of the
+sweep itself) stops it at once: local workers are stopped (processes killed, threads at their
+next pause; see ``maniplab.workers``) and the runs it wrote are removed.
 """
 
 from __future__ import annotations
 
 import concurrent.futures as cf
+import contextlib
 import itertools
 import os
 import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -29,6 +32,7 @@ from maniplab.sim.run import Run
 from maniplab.sim.runset import Failure, RunSet
 from maniplab.sim.simulate import simulate
 from maniplab.spec import ManipulatorSpec, model_of
+from maniplab.workers import Cancel, process_pool, stop_processes
 
 Variants = Mapping[str, Sequence[Any]] | Sequence[Mapping[str, Any]]
 
@@ -74,17 +78,23 @@ def sweep(spec: ManipulatorSpec | str | os.PathLike[str], grid: Variants, *,
     Returns:
         A RunSet of the stored runs, in variant order, with ``failures`` for the variants that
         raised (their parameters and the one-line error).
+
+    Raises:
+        KeyboardInterrupt: Ctrl-C; the workers are stopped, no run of this sweep is left in
+            ``out`` (nor ``out`` itself, if the sweep created it).
     """
     base = resolve_spec(spec)
     todo = variants(grid)
     folder = Path(out)
+    created = not folder.exists()
     folder.mkdir(parents=True, exist_ok=True)
     job = _Job(base, dict(inputs or {}), duration, simulate_args)
     paths: dict[int, Path] = {}
     failures: list[Failure] = []
-    bar = Progress(len(todo), f"sweep {base.name}", progress)
     threads = executor is None and not _needs_python(base, todo, simulate_args)
-    with _executor(executor, processes, threads) as pool:
+    pool = _executor(executor, processes, threads)
+    bar = Progress(len(todo), f"sweep {base.name}", progress)
+    try:
         futures = {pool.submit(job, overrides): i for i, overrides in enumerate(todo)}
         for future in cf.as_completed(futures):
             i = futures[future]
@@ -95,7 +105,13 @@ def sweep(spec: ManipulatorSpec | str | os.PathLike[str], grid: Variants, *,
                 paths[i] = folder / f"{i:03d}_{_slug(todo[i])}.npz"
                 outcome.save(paths[i])
             bar.step(format_parameters(todo[i]))
-    bar.close()
+    except BaseException:
+        _stop(pool)
+        _remove(paths.values(), folder if created else None)
+        raise
+    finally:
+        bar.close()
+    pool.shutdown()
     return RunSet([paths[i] for i in sorted(paths)], failures=failures)
 
 
@@ -149,8 +165,7 @@ def _executor(executor: Any, processes: int | None, threads: bool) -> cf.Executo
         if processes == 1:
             return _InProcess()
         workers = processes or os.cpu_count() or 1
-        return (cf.ThreadPoolExecutor(max_workers=workers) if threads
-                else cf.ProcessPoolExecutor(max_workers=workers))
+        return _Threads(workers) if threads else process_pool(workers)
     if hasattr(executor, "get_executor"):  # dask.distributed.Client
         return _Borrowed(executor.get_executor())
     if isinstance(executor, cf.Executor):
@@ -159,17 +174,58 @@ def _executor(executor: Any, processes: int | None, threads: bool) -> cf.Executo
                         f"dask.distributed.Client, got {type(executor).__name__}")
 
 
+class _Threads(cf.ThreadPoolExecutor):
+    """Threads whose running variants stop at their next pause once :meth:`stop` is called."""
+
+    def __init__(self, workers: int) -> None:
+        super().__init__(max_workers=workers)
+        self.cancel = Cancel()
+
+    def submit(self, fn: Any, /, *args: Any, **kwargs: Any) -> cf.Future:
+        return super().submit(self.cancel.run, fn, *args, **kwargs)
+
+    def stop(self) -> None:
+        self.cancel.set()
+        self.shutdown(wait=True, cancel_futures=True)
+
+
 class _Borrowed(cf.Executor):
     """A caller's executor, used but not shut down when the sweep ends."""
 
     def __init__(self, inner: cf.Executor) -> None:
         self.inner = inner
+        self.futures: list[cf.Future] = []
 
     def submit(self, fn: Any, /, *args: Any, **kwargs: Any) -> cf.Future:
-        return self.inner.submit(fn, *args, **kwargs)
+        future = self.inner.submit(fn, *args, **kwargs)
+        self.futures.append(future)
+        return future
 
     def shutdown(self, wait: bool = True, **kwargs: Any) -> None:
-        """Leave the caller's executor running."""
+        """Leave the caller's executor running; with ``cancel_futures``, drop our calls not yet
+        started."""
+        if kwargs.get("cancel_futures"):
+            for future in self.futures:
+                future.cancel()
+
+
+def _stop(pool: cf.Executor) -> None:
+    """Stop the sweep's pool at once (Ctrl-C or an error): no variant runs on, no worker is left."""
+    if isinstance(pool, cf.ProcessPoolExecutor):
+        stop_processes(pool)
+    elif isinstance(pool, _Threads):
+        pool.stop()
+    else:
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _remove(paths: Iterable[Path], folder: Path | None) -> None:
+    """Delete the runs of a stopped sweep, and ``folder`` if it is then empty."""
+    for path in paths:
+        path.unlink(missing_ok=True)
+    if folder is not None:
+        with contextlib.suppress(OSError):
+            folder.rmdir()
 
 
 def _slug(overrides: Mapping[str, Any]) -> str:

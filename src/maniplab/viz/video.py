@@ -1,13 +1,15 @@
 """Writing frames to a video file, MP4 (H.264) or GIF, with the ffmpeg of the imageio-ffmpeg wheel.
 
 No system ffmpeg is needed. The file is written under a temporary name in the target folder and
-renamed when complete, so an interrupted render leaves no half video.
+renamed when complete, so an interrupted render leaves no half video; Ctrl-C stops ffmpeg at once.
 """
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import os
+import subprocess
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 
@@ -61,26 +63,65 @@ def write_video(frames: np.ndarray | Iterable[np.ndarray], path: str | os.PathLi
 
 def _write(frames: Iterator[np.ndarray], path: Path, codec: str, fps: float) -> None:
     import imageio_ffmpeg
-    import mediapy
 
     first = next(frames, None)
     if first is None:
         raise RenderError(f"cannot write '{path.name}': no frames")
     shape = _check_frame(first, None)
     check_format(path, shape[1], shape[0])
-    mediapy.set_ffmpeg(imageio_ffmpeg.get_ffmpeg_exe())
-    # H.264 gets a quality and a preset; other codecs mediapy's defaults (no crf, no extra args)
-    h264 = codec == "h264"
+    with atomic_path(path) as tmp:
+        argv = [imageio_ffmpeg.get_ffmpeg_exe(), *_ffmpeg_args(tmp, shape, codec, fps)]
+        _encode(itertools.chain([first], frames), shape, argv, path)
+
+
+def _ffmpeg_args(tmp: Path, shape: tuple[int, int], codec: str, fps: float) -> list[str]:
+    """ffmpeg's arguments: raw RGB frames of ``shape`` (height, width) on stdin -> ``tmp``."""
+    height, width = shape
+    args = ["-v", "error", "-f", "rawvideo", "-pix_fmt", "rgb24", "-s", f"{width}x{height}",
+            "-r", f"{fps}", "-i", "-", "-an", "-vcodec", codec]
+    if codec == "h264":
+        args += ["-pix_fmt", "yuv420p", "-crf", f"{CRF}", "-preset", PRESET]
+    else:  # one palette for the whole GIF, computed from all its frames
+        args += ["-vf", "split[s0][s1];[s0]palettegen[p];[s1][p]paletteuse", "-f", "gif"]
+    return [*args, "-y", str(tmp)]
+
+
+def _encode(frames: Iterator[np.ndarray], shape: tuple[int, int], argv: list[str],
+            path: Path) -> None:
+    """Pipe ``frames`` into the ffmpeg command ``argv`` and wait for it to finish the file.
+
+    ffmpeg runs in a session of its own, so Ctrl-C at the terminal reaches maniplab only: an
+    interrupted (or failed) write kills and reaps ffmpeg, and the KeyboardInterrupt (or error)
+    is what the caller sees, never a broken pipe.
+    """
+    proc = subprocess.Popen(argv, stdin=subprocess.PIPE, stderr=subprocess.PIPE,
+                            start_new_session=True)
+    stdin, stderr = proc.stdin, proc.stderr
+    assert stdin is not None and stderr is not None, "both are pipes"
     try:
-        with atomic_path(path) as tmp, mediapy.VideoWriter(
-                tmp, shape, codec=codec, fps=fps, crf=CRF if h264 else None,
-                ffmpeg_args=["-preset", PRESET] if h264 else []) as writer:
-            for frame in itertools.chain([first], frames):
+        try:
+            for frame in frames:
                 _check_frame(frame, shape)
-                writer.add_image(frame)
-    except RuntimeError as exc:
-        raise RenderError(f"ffmpeg could not write '{path.name}': {' '.join(str(exc).split())}") \
-            from exc
+                stdin.write(np.ascontiguousarray(frame).tobytes())
+            stdin.close()
+        except BrokenPipeError:
+            pass  # ffmpeg quit early; its status and message say why
+        message = stderr.read().decode(errors="replace")
+        if proc.wait():
+            raise RenderError(f"ffmpeg could not write '{path.name}': {' '.join(message.split())}")
+    finally:
+        _reap(proc)
+
+
+def _reap(proc: subprocess.Popen[bytes]) -> None:
+    """Kill ffmpeg unless it has finished, wait for it, close its pipes."""
+    if proc.poll() is None:
+        proc.kill()
+        proc.wait()
+    for stream in (proc.stdin, proc.stderr):
+        if stream is not None:
+            with contextlib.suppress(OSError):  # unwritten frames meet a closed pipe: dropped
+                stream.close()
 
 
 def check_format(path: Path, width: int | None = None, height: int | None = None) -> str:

@@ -1,0 +1,122 @@
+"""Worker pools that answer Ctrl-C: processes that die with their parent, threads told to stop.
+
+A process pool's workers ignore SIGINT (the terminal sends it to the whole process group; the
+parent answers it and kills them, see :func:`stop_processes`) and end when their parent dies,
+even by ``kill -9``: on Linux through ``prctl(PR_SET_PDEATHSIG)``, elsewhere through a thread that
+polls the parent's pid. Work running in threads cannot be interrupted from outside, so it checks
+a :class:`Cancel` flag at its pauses (:func:`check_cancelled`).
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import contextlib
+import ctypes
+import multiprocessing
+import os
+import signal
+import sys
+import threading
+import time
+from collections.abc import Callable, Iterator
+from typing import Any, TypeVar
+
+T = TypeVar("T")
+
+PR_SET_PDEATHSIG = 1
+"""prctl option: the signal a process gets when its parent dies (linux/prctl.h)."""
+
+POLL_S = 0.5
+"""How often the fallback watcher checks that the parent lives, s."""
+
+
+def process_pool(workers: int) -> cf.ProcessPoolExecutor:
+    """A pool of ``workers`` processes, children of this one, that ignore SIGINT and die with it."""
+    method = multiprocessing.get_start_method()
+    # a fork server's workers would be its children, not ours
+    context = multiprocessing.get_context("spawn" if method == "forkserver" else method)
+    return cf.ProcessPoolExecutor(max_workers=workers, mp_context=context,
+                                  initializer=init_worker, initargs=(os.getpid(),))
+
+
+def init_worker(parent: int) -> None:
+    """Initializer of a pool's worker process: ignore SIGINT, die when ``parent`` (pid) dies."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    die_with_parent(parent)
+
+
+def die_with_parent(parent: int) -> None:
+    """End this process (SIGKILL) when its parent, the process ``parent`` (pid), ends."""
+    if not _set_parent_death_signal():
+        threading.Thread(target=_watch, args=(parent,), name="maniplab-parent-watch",
+                         daemon=True).start()
+    if os.getppid() != parent:  # the parent died before we were watching: we were re-parented
+        os.kill(os.getpid(), signal.SIGKILL)
+
+
+def _set_parent_death_signal() -> bool:
+    """Ask Linux to SIGKILL this process when its parent thread ends; False where it cannot."""
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        return bool(libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0) == 0)
+    except (OSError, AttributeError):
+        return False
+
+
+def _watch(parent: int) -> None:
+    while os.getppid() == parent:
+        time.sleep(POLL_S)
+    os.kill(os.getpid(), signal.SIGKILL)
+
+
+def stop_processes(pool: cf.ProcessPoolExecutor) -> None:
+    """Stop a process pool now: drop the calls not started, kill the workers, reap them."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())  # private, no public way
+    for process in processes:
+        process.kill()
+    for process in processes:
+        process.join()
+    pool.shutdown(wait=True, cancel_futures=True)
+
+
+class Cancel:
+    """A flag that stops work running in pool threads at its next :func:`check_cancelled`."""
+
+    _current = threading.local()
+
+    def __init__(self) -> None:
+        self._event = threading.Event()
+
+    def set(self) -> None:
+        """Cancel: every call made through :meth:`run` raises KeyboardInterrupt at its next check."""
+        self._event.set()
+
+    def run(self, fn: Callable[..., T], /, *args: Any, **kwargs: Any) -> T:
+        """``fn(*args, **kwargs)`` in this thread, under this flag."""
+        with self._scope():
+            return fn(*args, **kwargs)
+
+    @contextlib.contextmanager
+    def _scope(self) -> Iterator[None]:
+        outer = getattr(Cancel._current, "flag", None)
+        Cancel._current.flag = self
+        try:
+            yield
+        finally:
+            Cancel._current.flag = outer
+
+    @property
+    def is_set(self) -> bool:
+        return self._event.is_set()
+
+
+def check_cancelled() -> None:
+    """Raise KeyboardInterrupt when the work of the calling thread was cancelled (:class:`Cancel`).
+
+    Long work calls this at its pauses; outside :meth:`Cancel.run` it does nothing.
+    """
+    flag = getattr(Cancel._current, "flag", None)
+    if flag is not None and flag.is_set:
+        raise KeyboardInterrupt
