@@ -285,7 +285,8 @@ def big_arm(path: Path, n: int) -> Path:
 
 
 def test_crossval_answers_ctrl_c_while_the_model_compiles(job, tmp_path: Path) -> None:
-    """A cold model cache: the C compiler (and its cc1) must be killed, no cache entry made."""
+    """A cold model cache: the C compiler (and its cc1) must be killed, no cache entry made and
+    no half-built staging folder left."""
     cache = tmp_path / "cache"
     output = tmp_path / "crossval.png"
     arm = big_arm(tmp_path / "big.yaml", 9)
@@ -293,7 +294,7 @@ def test_crossval_answers_ctrl_c_while_the_model_compiles(job, tmp_path: Path) -
             env={"MANIPLAB_CACHE": str(cache)})
     j.wait_for(lambda: j.child("_maniplab_"), "the model's C compiler runs")
     assert_interrupted(j, "crossval", output)
-    assert [p.name for p in cache.iterdir() if not p.name.startswith(".")] == ["plugins"]
+    assert [p.name for p in cache.iterdir()] == ["plugins"]
 
 
 def test_demo_answers_ctrl_c_and_leaves_no_folder(job, tmp_path: Path) -> None:
@@ -395,3 +396,37 @@ def test_the_polling_fallback_ends_a_worker_after_its_parent(tmp_path: Path) -> 
         parent.wait()
         if parent.stdout is not None:
             parent.stdout.close()
+
+
+def test_the_console_script_answers_ctrl_c_while_maniplab_is_imported(job, tmp_path: Path) -> None:
+    """On first use `import mujoco` builds maniplab's native plugins (here with a compiler that
+    takes long): a Ctrl-C then, before any command runs, is one line and status 130 too."""
+    compiler = tmp_path / "slowcc"
+    compiler.write_text('#!/bin/sh\nsleep 600\nexec cc "$@"\n')
+    compiler.chmod(0o755)
+    script = Path(sys.executable).parent / "maniplab"  # the console script pip installed
+    output = tmp_path / "arm.xml"
+    j = job([str(script), "export", "erector", "-o", str(output)],
+            env={"MANIPLAB_CACHE": str(tmp_path / "cache"), "MANIPLAB_CC": str(compiler)})
+    j.wait_for(lambda: j.child("sleep 600"), "the native library builds during the import")
+    elapsed, below = j.interrupt()
+    lines = [line.strip() for line in j.stderr.splitlines() if line.strip()]
+    assert j.proc.returncode == 130 and lines == ["maniplab: interrupted"], j.stderr
+    assert elapsed < ANSWER_S and not output.exists()
+    until(lambda: not any(alive(pid) for pid in below), 5.0, "the compiler ends")
+
+
+def test_work_in_c_code_is_waited_for_interruptibly() -> None:
+    """interruptible() hands back the helper's value or error, and answers Ctrl-C while the
+    helper is still busy (here: blocked on an event nobody sets, as symengine's cse is in C)."""
+    from maniplab.workers import interruptible
+
+    assert interruptible(sum, [1, 2, 3]) == 6
+    with pytest.raises(ZeroDivisionError):
+        interruptible(divmod, 1, 0)
+    never = threading.Event()
+    timer = threading.Timer(0.2, os.kill, (os.getpid(), signal.SIGINT))
+    timer.start()
+    with pytest.raises(KeyboardInterrupt):
+        interruptible(never.wait)
+    never.set()  # the helper ends too

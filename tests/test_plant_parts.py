@@ -131,14 +131,13 @@ def test_the_record_is_what_the_run_stores() -> None:
     run = ml.simulate("erector", inputs=dict(zip(("q1", "q2", "q3", "q4", "q5", "q6"), inputs)),
                       duration=0.05, sample_dt=1e-3)
     plant = ml.Plant("erector")
-    with plant.scope():
-        for k in range(50):
-            plant.prepare(list(inputs))
-            record = plant.record
-            assert record.t == pytest.approx(run.t[k], abs=1e-12)
-            np.testing.assert_array_equal(record.q, run.q[k])
-            np.testing.assert_array_equal(record.u, run["ctrl"][k])
-            np.testing.assert_array_equal(record.mode, run["mode"][k])
-            plant.advance()
-            np.testing.assert_allclose(np.array(plant.record.fric) - plant.viscous * run.qd[k],
-                                       run["tau_fric"][k], rtol=0, atol=1e-9)
+    for k in range(50):
+        plant.prepare(list(inputs))
+        record = plant.record
+        assert record.t == pytest.approx(run.t[k], abs=1e-12)
+        np.testing.assert_array_equal(record.q, run.q[k])
+        np.testing.assert_array_equal(record.u, run["ctrl"][k])
+        np.testing.assert_array_equal(record.mode, run["mode"][k])
+        plant.advance()
+        np.testing.assert_allclose(np.array(plant.record.fric) - plant.viscous * run.qd[k],
+                                   run["tau_fric"][k], rtol=0, atol=1e-9)

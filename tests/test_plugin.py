@@ -326,13 +326,13 @@ def test_plants_in_two_threads_do_not_mix_their_callbacks() -> None:
     assert mujoco.get_mjcb_act_dyn() is None
 
 
-def test_a_foreign_model_inside_the_scope_sees_no_callbacks() -> None:
-    """Stepping some other MuJoCo model while a plant's callbacks are installed leaves its user
-    actuators untouched, as if no callback were installed."""
+def test_a_foreign_model_beside_a_plant_sees_no_callbacks() -> None:
+    """Stepping some other MuJoCo model while a plant with a Python actuator exists (and has
+    stepped) leaves its user actuators untouched, as if no callback were installed."""
     other = ml.build_model(motor_arm())
     data = mujoco.MjData(other)
     data.act[:] = 1.0
     plant = ml.Plant(motor_arm())
-    with plant.scope():
-        mujoco.mj_step(other, data)
+    plant.step()
+    mujoco.mj_step(other, data)
     assert data.act[0] == 1.0 and data.actuator_force[0] == 0.0

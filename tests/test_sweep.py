@@ -132,3 +132,26 @@ def test_variants_that_need_python_go_to_processes() -> None:
     assert not _needs_python(base, [{}], {})
     assert _needs_python(base, [{}, {"joints.slew.actuator": motor}], {})  # a Python actuator
     assert _needs_python(base, [{}], {"controller": lambda t, s: [0.0] * 3})
+
+
+def test_spawned_workers_load_the_plugins_the_parent_named(monkeypatch: pytest.MonkeyPatch,
+                                                           tmp_path: Path) -> None:
+    """A worker started by spawn (as under a fork server, the default from Python 3.14) imports
+    no plugin by itself, and a spec never makes it import one: the modules the parent named on
+    purpose (ml.load_plugins) are handed to it. Each variant equals simulating it alone."""
+    import multiprocessing
+
+    monkeypatch.delenv("MANIPLAB_PLUGINS", raising=False)
+    monkeypatch.setenv("PYTHONPATH", str(Path(__file__).parent))  # where tests/plugins lives
+    monkeypatch.setattr(multiprocessing, "get_start_method", lambda allow_none=False: "forkserver")
+    ml.load_plugins("plugins.spring")
+    springs = [{"type": "plugins.spring:LinearSpring", "stiffness": k} for k in (20.0, 80.0)]
+    base = ml.builtin_spec("planar2")
+    inputs = {"q1": ml.signals.step(0.3)}
+    runs = ml.sweep(base, {"joints.q1.actuator": springs}, out=tmp_path / "s", inputs=inputs,
+                    duration=0.2, processes=2)
+    assert not runs.failures, runs.failures
+    for run, spring in zip(runs, springs):
+        alone = ml.simulate(base.with_overrides({"joints.q1.actuator": spring}), duration=0.2,
+                            inputs=inputs)
+        np.testing.assert_array_equal(run.q, alone.q)

@@ -35,14 +35,25 @@ def process_pool(workers: int) -> cf.ProcessPoolExecutor:
     method = multiprocessing.get_start_method()
     # a fork server's workers would be its children, not ours
     context = multiprocessing.get_context("spawn" if method == "forkserver" else method)
+    from maniplab.actuators.registry import loaded_plugins
+
     return cf.ProcessPoolExecutor(max_workers=workers, mp_context=context,
-                                  initializer=init_worker, initargs=(os.getpid(),))
+                                  initializer=init_worker,
+                                  initargs=(os.getpid(), loaded_plugins()))
 
 
-def init_worker(parent: int) -> None:
-    """Initializer of a pool's worker process: ignore SIGINT, die when ``parent`` (pid) dies."""
+def init_worker(parent: int, plugins: tuple[str, ...] = ()) -> None:
+    """Initializer of a pool's worker process: ignore SIGINT, die when ``parent`` (pid) dies,
+    load the plugin modules the parent had loaded on purpose (a spawned worker starts without
+    them; one that cannot be loaded fails the variants that need it, with the registry's
+    message)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     die_with_parent(parent)
+    from maniplab.actuators.registry import PluginLookupError, load_plugins
+
+    for module in plugins:
+        with contextlib.suppress(PluginLookupError):
+            load_plugins(module)
 
 
 def die_with_parent(parent: int) -> None:
@@ -120,3 +131,28 @@ def check_cancelled() -> None:
     flag = getattr(Cancel._current, "flag", None)
     if flag is not None and flag.is_set:
         raise KeyboardInterrupt
+
+
+def interruptible(fn: Callable[..., T], /, *args: Any) -> T:
+    """``fn(*args)`` run in a helper thread while this one waits in short slices, so that Ctrl-C
+    is answered at once even when ``fn`` spends seconds in C code (symengine's cse) that checks
+    no signals. After Ctrl-C the helper finishes in the background and its result is dropped
+    (a daemon thread: it does not keep the process alive)."""
+    done = threading.Event()
+    outcome: dict[str, Any] = {}
+
+    def target() -> None:
+        try:
+            outcome["value"] = fn(*args)
+        except BaseException as exc:  # noqa: BLE001 - handed to the waiting thread
+            outcome["error"] = exc
+        finally:
+            done.set()
+
+    threading.Thread(target=target, name="maniplab-interruptible", daemon=True).start()
+    while not done.wait(0.05):
+        pass
+    if "error" in outcome:
+        raise outcome["error"]
+    value: T = outcome["value"]
+    return value

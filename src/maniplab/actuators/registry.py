@@ -95,6 +95,12 @@ def load_plugins(*modules: str) -> None:
         _load(module)
 
 
+def loaded_plugins() -> tuple[str, ...]:
+    """The plugin modules named on purpose so far in this process (:func:`load_plugins`, or
+    imported by the user and named by a spec), for worker processes to load in turn."""
+    return tuple(sorted(_LOADED))
+
+
 def _load(module: str) -> None:
     if not all(part.isidentifier() for part in module.split(".")):
         raise PluginLookupError(f"{module!r} is not a module name; expected e.g. mypkg.motors")
@@ -149,7 +155,9 @@ def _from_module(name: str) -> type[ActuatorPlugin]:
     if module_name in _named_in_environment() and module_name not in _LOADED:
         _load(module_name)
     module = sys.modules.get(module_name)
-    if module is None:
+    if module is not None:
+        _LOADED.add(module_name)  # imported by the user's own code: named on purpose
+    else:
         raise PluginLookupError(
             f"{name!r} names module {module_name!r}, which was not loaded; name it with "
             f"--plugin {module_name} or {PLUGINS_VARIABLE}={module_name} (in Python: "

@@ -20,11 +20,9 @@ from maniplab.cli import (
     tune_command,
 )
 from maniplab.cli.common import EXIT_BAD_INPUT, Parser
+from maniplab_entry import EXIT_INTERRUPTED
 
 __all__ = ["EXIT_BAD_INPUT", "EXIT_INTERRUPTED", "build_parser", "main"]
-
-EXIT_INTERRUPTED = 130
-"""Exit status after Ctrl-C: 128 + SIGINT, as shells report a process that SIGINT ended."""
 
 
 def build_parser() -> argparse.ArgumentParser:

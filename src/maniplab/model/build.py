@@ -15,6 +15,7 @@ from __future__ import annotations
 import dataclasses
 import importlib.machinery
 import importlib.util
+import shutil
 import sys
 import tempfile
 import threading
@@ -174,27 +175,36 @@ def load_kernels(spec: ManipulatorSpec, backend: str = "auto", *, use_cache: boo
 def _build_entry(spec: ManipulatorSpec, backend: str, key: str, inputs: dict[str, Any],
                  progress: bool | None, use_cache: bool) -> Path:
     bar = Progress(9 + (backend == "c"), f"maniplab: generating the {spec.name} model", progress)
+    stage: Path | None = None
     try:
         gen = generate(spec, bar)
         stage = cache.staging() if use_cache else Path(tempfile.mkdtemp(prefix="maniplab-"))
-        header = f"/* maniplab generated model, structure {key[:16]} */"
-        if backend == "c":
-            module = _module_name(key)
-            source = stage / f"{module}.c"
-            source.write_text(c_kernels_source(gen, header) + extension_source(gen.kernels, module))
-            compiler = find_compiler()
-            assert compiler is not None, "resolve_backend chooses 'c' only with a compiler"
-            compile_shared(compiler, source, stage / f"{module}.so", extension=True)
-            bar.step("compiled")
-        else:
-            (stage / "kernels.py").write_text(python_kernels_source(gen, f"# {header[3:-3]}"))
-        (stage / "slots.txt").write_text(
-            "\n".join(gen.terms.slot_labels) + "\n" if gen.terms.slot_labels else "")
-        if not use_cache:
-            return stage
-        return cache.commit(stage, key, inputs)
+        _write_entry(gen, stage, backend, key, bar)
+        return cache.commit(stage, key, inputs) if use_cache else stage
+    except BaseException:  # Ctrl-C or a failed compile: no half-built folder stays behind
+        if stage is not None:
+            shutil.rmtree(stage, ignore_errors=True)
+        raise
     finally:
         bar.close()
+
+
+def _write_entry(gen: Any, stage: Path, backend: str, key: str, bar: Progress) -> None:
+    """The files of a model entry in ``stage``: the kernels (a compiled extension or Python
+    source) and the slot labels."""
+    header = f"/* maniplab generated model, structure {key[:16]} */"
+    if backend == "c":
+        module = _module_name(key)
+        source = stage / f"{module}.c"
+        source.write_text(c_kernels_source(gen, header) + extension_source(gen.kernels, module))
+        compiler = find_compiler()
+        assert compiler is not None, "resolve_backend chooses 'c' only with a compiler"
+        compile_shared(compiler, source, stage / f"{module}.so", extension=True)
+        bar.step("compiled")
+    else:
+        (stage / "kernels.py").write_text(python_kernels_source(gen, f"# {header[3:-3]}"))
+    (stage / "slots.txt").write_text(
+        "\n".join(gen.terms.slot_labels) + "\n" if gen.terms.slot_labels else "")
 
 
 def _module_name(key: str) -> str:

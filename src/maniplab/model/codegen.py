@@ -18,6 +18,7 @@ from typing import Any
 from maniplab.model.dynamics import Dynamics
 from maniplab.model.engine import Engine, Expr
 from maniplab.model.kinematics import Chain, point_jacobian
+from maniplab.workers import interruptible
 
 #: Bump when the generated code changes in any way: it is part of every cache key.
 GENERATOR_VERSION = "2"
@@ -103,8 +104,9 @@ def model_kernels(ch: Chain, dyn: Dynamics, qdd: list, engine: Engine) -> list[K
 
 
 def eliminate(kernel: Kernel, engine: Engine) -> CseKernel:
-    """Common-subexpression elimination of one kernel (the engine's own cse)."""
-    temps, outputs = engine.module.cse(list(kernel.exprs))
+    """Common-subexpression elimination of one kernel (the engine's own cse, which for a large
+    arm spends seconds in C: :func:`~maniplab.workers.interruptible` keeps Ctrl-C answered)."""
+    temps, outputs = interruptible(engine.module.cse, list(kernel.exprs))
     return CseKernel(kernel, _live(list(temps), outputs), tuple(outputs))
 
 

@@ -333,12 +333,6 @@ class Plant:
         return out
 
     # --- stepping ----------------------------------------------------------------------------
-    def scope(self) -> contextlib.AbstractContextManager[None]:
-        """Context in which the plant may step: it holds nothing, for any plant (MuJoCo's
-        callbacks reach each thread's plant through one dispatcher, :mod:`maniplab.mjcb`); kept
-        for the callers of :meth:`prepare` and :meth:`advance` written for it."""
-        return contextlib.nullcontext()
-
     def step(self, commands: Any = None) -> None:
         """Advance one step of ``dt`` with the commands (array (n,) or mapping), held over it."""
         u = self.command_vector(np.zeros(self.n) if commands is None else commands)

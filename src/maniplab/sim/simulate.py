@@ -94,10 +94,9 @@ def simulate(spec_or_plant: SpecLike | Plant, *, inputs: Mapping[str | int, Any]
                    enabled=progress if progress is not None else
                    (None if steps >= PROGRESS_STEPS else False))
     try:
-        with plant.scope():
-            while loop.go():
-                check_cancelled()  # Ctrl-C reaches only the main thread; a sweep's threads stop here
-                bar.step(f"t = {plant.t:.3g} s")
+        while loop.go():
+            check_cancelled()  # Ctrl-C reaches only the main thread; a sweep's threads stop here
+            bar.step(f"t = {plant.t:.3g} s")
     finally:
         bar.close()
     meta = _meta(plant, inputs or {}, controller, period, overrides, initial, steps, every, label)
