@@ -10,6 +10,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 import pytest
+from commandline import run_cli as run
 
 from maniplab.cli import main
 
@@ -20,12 +21,6 @@ joints:
   - {type: Tr, axis: x, limits: [0.0, 0.5], body: {length: 0.5, mass: 1.0}}
 end_effector: {mass: 3.0}
 """
-
-
-def run(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
-    code = main(list(argv))
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 @pytest.fixture

@@ -7,21 +7,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from commandline import run_cli as run
 
 import maniplab as ml
-from maniplab.cli import main
 from maniplab.cli.common import EXIT_BAD_INPUT, EXIT_MISSED
 from maniplab.control.errors import LinearizeError
-
-
-def run(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
-    """Run the command in this process; (exit status, stdout, stderr)."""
-    try:
-        code = main(list(argv))
-    except SystemExit as exc:  # argparse's error() exits
-        code = int(exc.code or 0)
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 @pytest.mark.parametrize("argv, command", [

@@ -7,18 +7,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from commandline import run_cli
 
 import maniplab as ml
-from maniplab.cli import main
-
-
-def run_cli(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
-    try:
-        code = main(list(argv))
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def test_simulate_writes_the_run_with_inputs_and_overrides(capsys, tmp_path: Path) -> None:

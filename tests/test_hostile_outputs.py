@@ -19,22 +19,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from commandline import run_cli as cli
 
 import maniplab as ml
 from maniplab import atomic
-from maniplab.cli import main
 from maniplab.sim import Run, RunFileError, store
-
-
-def cli(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
-    """Run ``maniplab argv``; the exit status, stdout and stderr (an output refused while the
-    arguments are parsed exits through argparse)."""
-    try:
-        code = main(list(argv))
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def assert_one_line_error(code: int, err: str, *names: str) -> None:
