@@ -70,3 +70,15 @@ def test_headline_figures_link_to_their_benchmark_pages() -> None:
         assert link, f"headline figure without its benchmark page: {row}"
         page = (ROOT / link.group(1)).read_text(encoding="utf-8")
         assert "python benchmarks/" in page, f"{link.group(1)} gives no command to reproduce it"
+
+
+def test_the_license_is_an_spdx_expression() -> None:
+    """A license table is deprecated (setuptools warns on every install); PEP 639's string is
+    not, and a build backend that reads it is required."""
+    import tomllib
+
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    assert project["project"]["license"] == "Apache-2.0"
+    requires = project["build-system"]["requires"]
+    assert any(r.startswith("setuptools>=") and int(r.split(">=")[1].split(".")[0]) >= 77
+               for r in requires)
