@@ -10,6 +10,7 @@ Public API::
     model = ml.build_model(spec)             # mujoco.MjModel
     run = ml.simulate(spec, inputs={"q1": ml.signals.step(0.5, t0=0.1)}, duration=2.0)
     runs = ml.sweep(spec, {"end_effector.mass": [3000, 5000]}, out="runs/", duration=2.0)
+    chart = ml.load_chart(spec)              # the largest payload held at each pose
 """
 
 
@@ -41,6 +42,7 @@ from maniplab.builtin import builtin_spec, builtin_specs, resolve_spec
 from maniplab.control import CascadeController, MinJerkMove, Path, Pose, segment_placement
 from maniplab.control.linearize import linearize
 from maniplab.errors import ManiplabError, ModelError, SpecError
+from maniplab.loadchart import LoadChart, load_chart
 from maniplab.mjcf_gen import build_model, to_mjcf
 from maniplab.model import AnalyticModel
 from maniplab.sim import (
@@ -93,6 +95,7 @@ __all__ = [
     "InstabilityError",
     "Joint",
     "JointType",
+    "LoadChart",
     "ManiplabError",
     "ManipulatorSpec",
     "MinJerkMove",
@@ -114,6 +117,7 @@ __all__ = [
     "builtin_specs",
     "crossvalidate",
     "linearize",
+    "load_chart",
     "load_plugins",
     "load_spec",
     "render",

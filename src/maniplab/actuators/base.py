@@ -29,6 +29,7 @@ mujoco_plugin              a MuJoCo engine plugin (C) that models the actuator i
 configure_mjcf             how the exported MJCF declares the actuator
 steady, holding            operating points (the state and command that hold a force), the
                            plant's start "held against gravity", the default drive
+holding_range              load charts (the largest payload held at each pose)
 drive                      how a controller makes the joint exert a desired force (the
                            cascade's force-to-command inversion); the default inverts
                            ``steady``; an actuator without ``steady`` cannot be driven
@@ -269,6 +270,16 @@ class ActuatorPlugin(abc.ABC):
         """The states (k,) of an actuator that exerts ``force`` on a joint at rest at q, as a run
         starts "held against gravity" (the default: the steady state's)."""
         return self.steady(force, q, 0.0).x
+
+    def holding_range(self, q: float) -> tuple[float, float]:
+        """The forces (N or N·m) the actuator can hold the joint at rest against at q, as
+        (lowest, highest): what a load chart counts on (inf: no bound).
+
+        Raises:
+            CapabilityError: the actuator does not declare it (the default).
+        """
+        raise CapabilityError(f"{self.label()} declares no holding range "
+                              "(ActuatorPlugin.holding_range), so no load chart counts on it")
 
     @classmethod
     def has_steady(cls) -> bool:

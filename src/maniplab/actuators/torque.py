@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, ClassVar, Literal
 
@@ -47,6 +48,11 @@ class TorqueSource(ActuatorPlugin):
     def command_limit(self) -> float | None:
         """The spec's ``limit`` (N or N·m), or None."""
         return self.params.limit
+
+    def holding_range(self, q: float) -> tuple[float, float]:
+        """±limit (unbounded without one)."""
+        limit = math.inf if self.params.limit is None else self.params.limit
+        return -limit, limit
 
     def force(self, x: np.ndarray, u: float, q: float, v: float) -> float:
         """The command itself."""

@@ -90,6 +90,13 @@ class HydraulicCylinder(ActuatorPlugin):
         """A ΔP at N samples, (N,)."""
         return np.asarray(self.params.area * x[:, 0], dtype=float)
 
+    def holding_range(self, q: float) -> tuple[float, float]:
+        """±A p_max with the valve closed: p_max the relief's setting (the relief opens above it),
+        else the supply pressure."""
+        p = self.params
+        force = p.area * (p.relief_pressure or p.supply_pressure)
+        return -force, force
+
     def bounds(self) -> list[Bound]:
         """ΔP within the supply pressure, and never beyond the relief's setting plus its
         override."""

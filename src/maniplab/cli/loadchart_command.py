@@ -1,0 +1,52 @@
+"""``maniplab loadchart``: the largest payload the arm holds at each pose."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from maniplab.cli.common import output_file, positive_int, spec_argument
+
+
+def add(sub: argparse._SubParsersAction) -> None:
+    """Register the sub-command of this module."""
+    chart = sub.add_parser(
+        "loadchart", help="the largest payload the arm holds at each pose",
+        description="For a grid of poses within the joint limits, the largest payload the "
+                    "actuators hold at rest with the valves closed (each cylinder up to its "
+                    "relief pressure, else its supply pressure; a torque source up to its "
+                    "limit; friction not counted) and the joint that limits it. Writes the "
+                    "chart over horizontal reach and height (.png, .svg, .pdf) or every pose "
+                    "(.json).")
+    spec_argument(chart)
+    chart.add_argument("-o", "--output", type=output_file, default=Path("out/loadchart.png"),
+                       metavar="FILE", help="the figure (.png, .svg, .pdf) or the poses (.json) "
+                                            "(default: out/loadchart.png)")
+    chart.add_argument("--points", type=positive_int, metavar="N",
+                       help="grid points per joint (default: a grid of at most 20,000 poses)")
+    chart.set_defaults(func=_cmd_loadchart)
+
+
+def _cmd_loadchart(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from maniplab.atomic import write_text
+    from maniplab.loadchart import load_chart
+
+    chart = load_chart(args.spec, points=args.points)
+    if args.output.suffix.lower() == ".json":
+        write_text(args.output, json.dumps(chart.to_dict(), indent=1) + "\n")
+    else:
+        from maniplab.viz.loadchart import load_chart_figure
+        from maniplab.viz.plots import save_figure
+
+        save_figure(load_chart_figure(chart), args.output)
+    rated = chart.spec.end_effector.mass
+    held = float(np.mean(chart.payload >= rated))
+    k = int(np.argmin(chart.payload))
+    print(f"wrote {args.output}: {chart.spec.name}, {len(chart.q)} poses; the rated payload "
+          f"({rated:g} kg) is held at {held:.0%} of them; least {chart.payload[k]:.4g} kg at "
+          f"reach {chart.reach[k]:.3g} m, height {chart.height[k]:.3g} m "
+          f"(limited by {chart.limiting(k) or 'no joint'})")
+    return 0
