@@ -210,6 +210,11 @@ def run_cases(good: Path) -> list[Case]:
         archive.writestr("t.npy", bytes(body))
         archive.writestr("header.npy", _npy(np.array(str(members["header"]))))
     cases.append(("claims 10^12 samples", huge.getvalue()))
+    bare = io.BytesIO()
+    with zipfile.ZipFile(bare, "w") as archive:  # members without the .npy suffix
+        archive.writestr("header", str(members["header"]))
+        archive.writestr("t", b"\0" * 64)
+    cases.append(("members without .npy", bare.getvalue()))
     return cases
 
 

@@ -228,12 +228,13 @@ def test_the_next_save_removes_stale_temporaries_only(capsys, runs_dir: Path) ->
     young.write_bytes(b"a save in progress")
     other = stale(runs_dir / ".other.0ld00000.tmp.npz")  # another target's: not this save's
     locked = stale(runs_dir / ".run.l0cked00.tmp.npz")
+    users = stale(runs_dir / ".run.backup.tmp.npz")  # the user's own file: not a mkstemp name
     with open(locked, "rb") as held:
         fcntl.flock(held, fcntl.LOCK_EX)  # a live writer, however old its file
         code, _, err = cli(capsys, *COMMANDS["simulate"](runs_dir / "run.npz"))
     assert code == 0, err
     assert not (runs_dir / ".run.k1ll3d00.tmp.npz").exists()
-    assert young.exists() and other.exists() and locked.exists()
+    assert young.exists() and other.exists() and locked.exists() and users.exists()
     assert Run.load(runs_dir / "run.npz").spec.name == "erector"
 
 
@@ -356,3 +357,21 @@ def test_a_corrupt_run_is_one_line_naming_the_file(capsys, corrupt: tuple[Path, 
         assert_one_line_error(code, err, str(bad), words)
     else:  # `runs` reads headers only; the content is checked when a run is loaded
         assert code == 0 and "bad.npz" in out, err
+
+
+def test_a_replaced_file_keeps_its_permissions(capsys, tmp_path: Path) -> None:
+    """A private 0600 file stays private when maniplab writes it again; a new one gets 0666 less
+    the umask (not mkstemp's 0600)."""
+    private = tmp_path / "arm.xml"
+    private.write_text("old")
+    private.chmod(0o600)
+    code, _, err = cli(capsys, "export", "erector", "-o", str(private))
+    assert code == 0, err
+    assert stat.S_IMODE(private.stat().st_mode) == 0o600 and "<mujoco" in private.read_text()
+    fresh = tmp_path / "new.xml"
+    mask = os.umask(0o022)
+    try:
+        assert cli(capsys, "export", "erector", "-o", str(fresh))[0] == 0
+    finally:
+        os.umask(mask)
+    assert stat.S_IMODE(fresh.stat().st_mode) == 0o644

@@ -155,3 +155,41 @@ def test_spawned_workers_load_the_plugins_the_parent_named(monkeypatch: pytest.M
         alone = ml.simulate(base.with_overrides({"joints.q1.actuator": spring}), duration=0.2,
                             inputs=inputs)
         np.testing.assert_array_equal(run.q, alone.q)
+
+
+def test_an_interrupted_sweep_leaves_the_folder_as_it_was(monkeypatch: pytest.MonkeyPatch,
+                                                          tmp_path: Path) -> None:
+    """Ctrl-C while the second run is saved: the runs wait in a staging folder until all are
+    done, so the earlier run of the same name and the other files are untouched, and nothing
+    of the sweep (not even its staging folder) is left."""
+    from maniplab.sim.run import Run
+
+    out = tmp_path / "runs"
+    out.mkdir()
+    (out / "001_payload=20.npz").write_text("an earlier run")
+    (out / "notes.txt").write_text("mine")
+    saved: list[Path] = []
+    original = Run.save
+
+    def save(run: Run, path: Path) -> None:
+        if saved:
+            raise KeyboardInterrupt
+        saved.append(Path(path))
+        original(run, path)
+
+    monkeypatch.setattr(Run, "save", save)
+    with pytest.raises(KeyboardInterrupt):
+        sweep("planar2", {"end_effector.mass": [10.0, 20.0]}, out=out, duration=0.05,
+              processes=1)
+    assert saved and saved[0].parent != out  # the first run went to the staging folder
+    assert sorted(p.name for p in out.iterdir()) == ["001_payload=20.npz", "notes.txt"]
+    assert (out / "001_payload=20.npz").read_text() == "an earlier run"
+
+
+def test_a_run_name_taken_by_a_folder_is_refused_before_anything_moves(tmp_path: Path) -> None:
+    out = tmp_path / "runs"
+    (out / "001_payload=20.npz").mkdir(parents=True)
+    with pytest.raises(ml.ManiplabError, match="001_payload=20.npz: a folder, not a regular"):
+        sweep("planar2", {"end_effector.mass": [10.0, 20.0]}, out=out, duration=0.05,
+              processes=1)
+    assert [p.name for p in out.iterdir()] == ["001_payload=20.npz"]

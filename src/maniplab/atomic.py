@@ -29,6 +29,7 @@ import contextlib
 import fcntl
 import glob
 import os
+import re
 import stat
 import tempfile
 import time
@@ -57,7 +58,8 @@ def atomic_path(path: str | os.PathLike[str], suffix: str | None = None) -> Iter
         suffix: the temporary file's suffix (default ``path``'s, so tools that pick a format by
             suffix, such as ffmpeg or matplotlib, see the right one).
 
-    The file gets the usual permissions (0666 less the umask), not mkstemp's 0600.
+    A file replaced keeps its permissions; a new one gets the usual ones (0666 less the umask),
+    not mkstemp's 0600.
 
     Raises:
         OutputError: ``path`` is (or links to) an existing non-regular file.
@@ -78,7 +80,7 @@ def atomic_path(path: str | os.PathLike[str], suffix: str | None = None) -> Iter
         with contextlib.suppress(OSError):  # a file system without locks: the age rule remains
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         yield tmp
-        os.chmod(tmp, 0o666 & ~_umask())
+        os.chmod(tmp, _mode(target))
         os.replace(tmp, target)
     except OSError as exc:
         if exc.filename not in (None, name, tmp):
@@ -129,7 +131,10 @@ def _target(given: Path) -> Path:
 def _remove_stale(folder: Path, prefix: str, ending: str) -> None:
     """Delete leftover temporary files ``prefix*ending`` in ``folder`` (see the module's rule)."""
     now = time.time()
+    ours = re.compile(re.escape(prefix) + r"[a-z0-9_]{8}" + re.escape(ending))  # mkstemp's names
     for candidate in folder.glob(glob.escape(prefix) + "*" + glob.escape(ending)):
+        if not ours.fullmatch(candidate.name):
+            continue  # a user's own hidden file of a similar name
         with contextlib.suppress(OSError):  # gone meanwhile, or not ours to delete
             if now - candidate.lstat().st_mtime > STALE_AFTER:
                 _remove_unlocked(candidate)
@@ -150,6 +155,14 @@ def _named(exc: OSError, given: Path, tmp: str | None = None) -> OSError:
     message without an errno)."""
     text = exc.strerror or (str(exc).replace(tmp, str(given)) if tmp else str(exc))
     return OSError(exc.errno, text, str(given))
+
+
+def _mode(target: Path) -> int:
+    """The permission bits the written file gets: the replaced file's, else the usual ones."""
+    try:
+        return stat.S_IMODE(os.stat(target).st_mode)
+    except FileNotFoundError:
+        return 0o666 & ~_umask()
 
 
 def _umask() -> int:

@@ -166,8 +166,8 @@ class Statics:
         return self._bias.copy(), -self._jac.T @ self.gravity, position
 
     def idle_joints(self, trials: int = 4) -> frozenset[int]:
-        """The joints whose motion changes neither the loads nor the payload's reach and height
-        (a slew about the vertical axis): one value of theirs charts them all. Tried at the
+        """The joints whose motion changes neither the loads, the holding ranges nor the payload's
+        reach and height (a slew about the vertical axis): one value of theirs charts them all. Tried at the
         home pose and random poses, each joint over three values of its range."""
         poses = grid(self.spec, 1)
         rng = np.random.default_rng(0)
@@ -184,12 +184,14 @@ class Statics:
         return frozenset(idle)
 
     def _invariants(self, q: np.ndarray) -> np.ndarray:
-        """What a chart shows of pose q: the loads, the reach and the height."""
+        """What a chart shows of pose q: the loads, the holding ranges, the reach and the
+        height."""
         g, h, position = self.loads(q)
         down = _unit(self.gravity)
         height = -position @ down
         reach = np.linalg.norm(position + height * down)
-        return np.r_[g, h, reach, height]
+        low, high = self.ranges(q)
+        return np.r_[g, h, low, high, reach, height]
 
     def ranges(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Each joint's holding range at q, (lowest, highest), N or N·m, each shape (n,)."""

@@ -181,6 +181,8 @@ def _check_size(data: np.lib.npyio.NpzFile, name: str) -> None:
     allocate what the header claims, e.g. 8 TB, before finding out)."""
     archive = data.zip
     assert archive is not None  # an open NpzFile
+    if f"{name}.npy" not in archive.namelist():
+        return  # a member that is no .npy: numpy hands back its bytes, which _array refuses
     info = archive.getinfo(f"{name}.npy")
     with archive.open(info) as member:
         major, _ = np.lib.format.read_magic(member)

@@ -20,10 +20,13 @@ import contextlib
 import itertools
 import os
 import re
-from collections.abc import Iterable, Mapping, Sequence
+import shutil
+import tempfile
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from maniplab.atomic import check_target
 from maniplab.builtin import resolve_spec
 from maniplab.errors import ManiplabError
 from maniplab.progress import Progress
@@ -81,7 +84,9 @@ def sweep(spec: ManipulatorSpec | str | os.PathLike[str], grid: Variants, *,
 
     Raises:
         KeyboardInterrupt: Ctrl-C; the workers are stopped, no run of this sweep is left in
-            ``out`` (nor ``out`` itself, if the sweep created it).
+            ``out`` (nor ``out`` itself, if the sweep created it): the runs wait in a hidden
+            staging folder inside ``out`` until all are done, so earlier runs of the same names
+            stay intact until the sweep completes.
     """
     base = resolve_spec(spec)
     todo = variants(grid)
@@ -89,10 +94,11 @@ def sweep(spec: ManipulatorSpec | str | os.PathLike[str], grid: Variants, *,
     created = not folder.exists()
     folder.mkdir(parents=True, exist_ok=True)
     job = _Job(base, dict(inputs or {}), duration, simulate_args)
-    paths: dict[int, Path] = {}
+    names: dict[int, str] = {}
     failures: list[Failure] = []
     threads = executor is None and not _needs_python(base, todo, simulate_args)
     pool = _executor(executor, processes, threads)
+    staging = Path(tempfile.mkdtemp(prefix=".sweep-", suffix=".tmp", dir=folder))
     bar = Progress(len(todo), f"sweep {base.name}", progress)
     try:
         futures = {pool.submit(job, overrides): i for i, overrides in enumerate(todo)}
@@ -102,17 +108,18 @@ def sweep(spec: ManipulatorSpec | str | os.PathLike[str], grid: Variants, *,
             if isinstance(outcome, str):
                 failures.append(Failure(todo[i], outcome))
             else:
-                paths[i] = folder / f"{i:03d}_{_slug(todo[i])}.npz"
-                outcome.save(paths[i])
+                names[i] = f"{i:03d}_{_slug(todo[i])}.npz"
+                outcome.save(staging / names[i])
             bar.step(format_parameters(todo[i]))
+        pool.shutdown()
+        paths = _commit(staging, folder, [names[i] for i in sorted(names)])
     except BaseException:
         _stop(pool)
-        _remove(paths.values(), folder if created else None)
+        _discard(staging, folder if created else None)
         raise
     finally:
         bar.close()
-    pool.shutdown()
-    return RunSet([paths[i] for i in sorted(paths)], failures=failures)
+    return RunSet(paths, failures=failures)
 
 
 class _Job:
@@ -219,10 +226,24 @@ def _stop(pool: cf.Executor) -> None:
         pool.shutdown(wait=True, cancel_futures=True)
 
 
-def _remove(paths: Iterable[Path], folder: Path | None) -> None:
-    """Delete the runs of a stopped sweep, and ``folder`` if it is then empty."""
+def _commit(staging: Path, folder: Path, names: list[str]) -> list[Path]:
+    """Move the runs saved in ``staging`` into ``folder`` (replacing runs of the same name) and
+    remove ``staging``; returns their paths. Until this, the folder holds nothing of the sweep,
+    so an interrupted sweep leaves it as it was."""
+    paths = [folder / name for name in names]
     for path in paths:
-        path.unlink(missing_ok=True)
+        check_target(path)  # a folder of that name is refused before anything moves
+    for name, path in zip(names, paths):
+        os.replace(staging / name, path)
+    staging.rmdir()
+    return paths
+
+
+def _discard(staging: Path, folder: Path | None) -> None:
+    """Delete the runs of a stopped sweep (all in ``staging``), and ``folder`` if the sweep
+    created it and it is empty; never raises (the error that stopped the sweep is the one to
+    see)."""
+    shutil.rmtree(staging, ignore_errors=True)
     if folder is not None:
         with contextlib.suppress(OSError):
             folder.rmdir()

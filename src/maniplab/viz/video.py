@@ -10,6 +10,7 @@ import contextlib
 import itertools
 import os
 import subprocess
+import tempfile
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 
@@ -94,23 +95,25 @@ def _encode(frames: Iterator[np.ndarray], shape: tuple[int, int], argv: list[str
     interrupted (or failed) write kills and reaps ffmpeg, and the KeyboardInterrupt (or error)
     is what the caller sees, never a broken pipe.
     """
-    proc = subprocess.Popen(argv, stdin=subprocess.PIPE, stderr=subprocess.PIPE,
-                            start_new_session=True)
-    stdin, stderr = proc.stdin, proc.stderr
-    assert stdin is not None and stderr is not None, "both are pipes"
-    try:
+    # its messages go to a file: a pipe nobody reads while frames are written could fill up
+    with tempfile.TemporaryFile() as log:
+        proc = subprocess.Popen(argv, stdin=subprocess.PIPE, stderr=log, start_new_session=True)
+        stdin = proc.stdin
+        assert stdin is not None, "a pipe"
         try:
-            for frame in frames:
-                _check_frame(frame, shape)
-                stdin.write(np.ascontiguousarray(frame).tobytes())
-            stdin.close()
-        except BrokenPipeError:
-            pass  # ffmpeg quit early; its status and message say why
-        message = stderr.read().decode(errors="replace")
-        if proc.wait():
-            raise RenderError(f"ffmpeg could not write '{path.name}': {' '.join(message.split())}")
-    finally:
-        _reap(proc)
+            try:
+                for frame in frames:
+                    _check_frame(frame, shape)
+                    stdin.write(np.ascontiguousarray(frame).tobytes())
+                stdin.close()
+            except BrokenPipeError:
+                pass  # ffmpeg quit early; its status and message say why
+            if proc.wait():
+                log.seek(0)
+                message = " ".join(log.read().decode(errors="replace").split())
+                raise RenderError(f"ffmpeg could not write '{path.name}': {message}")
+        finally:
+            _reap(proc)
 
 
 def _reap(proc: subprocess.Popen[bytes]) -> None:
@@ -118,10 +121,9 @@ def _reap(proc: subprocess.Popen[bytes]) -> None:
     if proc.poll() is None:
         proc.kill()
         proc.wait()
-    for stream in (proc.stdin, proc.stderr):
-        if stream is not None:
-            with contextlib.suppress(OSError):  # unwritten frames meet a closed pipe: dropped
-                stream.close()
+    if proc.stdin is not None:
+        with contextlib.suppress(OSError):  # unwritten frames meet a closed pipe: dropped
+            proc.stdin.close()
 
 
 def check_format(path: Path, width: int | None = None, height: int | None = None) -> str:
