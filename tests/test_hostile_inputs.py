@@ -1,4 +1,5 @@
-"""Hostile inputs, generated: mutated specs and corrupted run files through the command line.
+"""Hostile inputs, generated: mutated specs, hostile ``--set`` values and corrupted run files
+through the command line.
 
 Each case is a file a user (or an attacker) could hand to maniplab. Its outcome is one of
 
@@ -140,6 +141,38 @@ def _non_specs() -> list[Case]:
                                            b"name: '--><include file=\"/etc/passwd\"/><!--'")),
         ("huge gravity", good.replace(b"gravity: [0.0, 0.0, -9.81]", b"gravity: [0, 0, -1e308]")),
     ]
+
+
+# --- hostile values through --set ----------------------------------------------------------------
+
+SET_VALUES = ["0", "-1", "1e308", "-1e308", "nan", "inf", "1e-320", "abc", "[1,2,3]", "{}",
+              "null", "true", "1e18", "-1e18", "1e-18", "-0.0", "[nan,0,0]"]
+
+
+def set_cases() -> list[Case]:
+    """Every parameter of crane3 (as ``--set`` names it) given each hostile value."""
+    from maniplab.sim import params
+
+    return [(f"--set {path}={value}", f"{path}={value}".encode())
+            for path in params.flatten_spec(ml.builtin_spec("crane3")) for value in SET_VALUES]
+
+
+def set_outcome(path: Path, work: Path) -> tuple[str, str]:
+    """(outcome, detail) of simulating crane3 with the override held in the file ``path``: a run
+    that is stored must read back (its spec included) and be finite."""
+    run = work / "run.npz"
+    status, _, err = _cli("simulate", "crane3", "--duration", "0.01",
+                          "--set", path.read_text(), "-o", str(run))
+    if status == 0:
+        try:
+            stored = ml.Run.load(run)
+        except ml.ManiplabError as exc:
+            return "wrong", f"the stored run does not read back: {exc}"
+        finite = np.isfinite(stored.q).all() and np.isfinite(stored["qd"]).all()
+        return ("accepted", "") if finite else ("wrong", "a stored run holds NaN")
+    lines = err.strip().splitlines()
+    clean = status == 2 and len(lines) == 1 and "Traceback" not in err
+    return ("clean" if clean else "traceback"), err.strip()
 
 
 # --- generated run files ----------------------------------------------------------------------
@@ -340,11 +373,12 @@ def outcomes(work: Path) -> tuple[Counter[str], list[str]]:
     bad: list[str] = []
     try:
         for kind, cases, judge in (("spec", spec_cases(), spec_outcome),
+                                   ("set", set_cases(), set_outcome),
                                    ("run", run_cases(_good_run(work)), run_outcome)):
             for k, (name, data) in enumerate(cases):
                 folder = work / f"{kind}{k}"
                 folder.mkdir()
-                path = folder / (f"case{k}.yaml" if kind == "spec" else f"case{k}.npz")
+                path = folder / f"case{k}.{ {'spec': 'yaml', 'set': 'txt'}.get(kind, 'npz')}"
                 path.write_bytes(data)
                 try:
                     with _alarm(ALARM_S):
@@ -373,6 +407,7 @@ def test_no_hostile_input_gives_a_traceback_a_hang_or_a_wrong_result(tmp_path: P
     assert not bad, "\n".join(bad)
     assert counts["spec clean"] > 100 and counts["spec accepted"] > 20  # the mutations bite
     assert counts["run clean"] > 20
+    assert counts["set clean"] > 1000 and counts["set accepted"] > 100
 
 
 if __name__ == "__main__":
@@ -380,9 +415,10 @@ if __name__ == "__main__":
 
     with tempfile.TemporaryDirectory() as folder:
         counts, bad = outcomes(Path(folder))
-    for kind in ("spec", "run"):
+    for kind in ("spec", "set", "run"):
         tried = sum(v for k, v in counts.items() if k.startswith(kind))
         row = ", ".join(f"{o} {counts[f'{kind} {o}']}"
                         for o in ("accepted", "clean", "traceback", "hang", "wrong"))
-        print(f"{kind} files: tried {tried}: {row}")
+        what = {"spec": "spec files", "set": "--set values", "run": "run files"}[kind]
+        print(f"{what}: tried {tried}: {row}")
     print("\n".join(bad) or "no traceback, hang or wrong result")

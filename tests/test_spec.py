@@ -188,6 +188,16 @@ def test_a_body_whose_model_would_overflow_is_refused():
     assert_words(error.problem, ["1e+200", "beyond ±1e18", "overflow"])
 
 
+def test_a_derived_inertia_beyond_the_bounds_is_refused_so_every_spec_reads_back():
+    """Length and mass within ±1e18 can still derive m L²/12 beyond it; the spec is written out
+    with its derived inertia, which must read back, so the body is refused naming it."""
+    error = error_of({"joints": [{**J, "body": {"length": 1e18, "mass": 1.0}}]})
+    assert (error.joint, error.field) == ("q1", "body")
+    assert_words(error.problem, ["m L²/12", "beyond ±1e+18", "explicit inertia"])
+    spec = spec_of(body={"length": 1e9, "mass": 1e-3})  # 8.3e13 kg·m²: within, and reads back
+    assert ml.ManipulatorSpec.from_dict(spec.to_dict()) == spec
+
+
 def assert_words(message, words):
     for word in words:
         assert word in message, f"{word!r} not in {message!r}"

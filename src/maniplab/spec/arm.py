@@ -75,6 +75,7 @@ from maniplab.schema import (
     translate_errors,
     validated,
 )
+from maniplab.schema.fields import LARGEST
 from maniplab.schema.translate import INTERNAL, line_of, unknown_key_problem
 from maniplab.spec import overrides as _overrides
 from maniplab.spec.actuator import DEFER_PLUGINS, Actuator, actuator_dict
@@ -206,8 +207,14 @@ class Body:
         e = np.asarray(self.direction)
         if self.com is None:
             object.__setattr__(self, "com", tuple(float(c) for c in 0.5 * self.length * e))
-        if self.inertia is None:  # finite: mass and length are bounded (schema.LARGEST)
+        if self.inertia is None:
             rod = self.mass * self.length**2 / 12.0 * (np.eye(3) - np.outer(e, e))
+            largest = float(np.abs(rod).max())
+            if largest > LARGEST:  # it is written out with the spec, and must read back
+                raise ValueError(
+                    f"the inertia of a {self.mass:g} kg rod {self.length:g} m long (m L²/12 = "
+                    f"{largest:.4g} kg·m²) is beyond ±{LARGEST:g}, the largest number a spec "
+                    "may hold; give a smaller length or mass, or an explicit inertia")
             object.__setattr__(self, "inertia", _inertia_tuple(rod))
 
     @property
