@@ -289,9 +289,12 @@ def test_numbers_whose_use_overflows_are_refused_naming_the_field(tmp_path, caps
 
 
 def test_the_bounds_themselves_give_a_finite_model(tmp_path, capsys) -> None:
-    """Every number at ±1e18 or 1e-18 at once: the spec is valid and its MJCF holds no NaN."""
+    """Every number at ±1e18 or 1e-18 at once: the spec is valid and its MJCF holds no NaN.
+    (The inertia is given: derived from these, m L²/12, it would be beyond the bounds, and a
+    spec must read back what it writes.)"""
     text = arm_text(
-        "body: {length: 1.0e+18, mass: 1.0e+18}, limits: [-1.0e+18, 1.0e+18], actuator: "
+        "body: {length: 1.0e+18, mass: 1.0e+18, inertia: [1.0e+18, 1.0e+18, 1.0e+18, 0, 0, 0]}, "
+        "limits: [-1.0e+18, 1.0e+18], actuator: "
         "{type: hydraulic, area: 1.0e+18, volume: 1.0e-18, valve_gain: 1.0e-18, "
         "supply_pressure: 1.0e+18, bulk_modulus: 1.0e+18, valve_tau: 1.0e-18}",
         top="gravity: [0, 0, -1.0e+18]\nend_effector: {mass: 1.0e+18}\n")
