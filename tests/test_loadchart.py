@@ -45,8 +45,8 @@ def test_one_boom_against_its_closed_form() -> None:
 def test_without_relief_the_supply_pressure_bounds_and_a_torque_source_its_limit() -> None:
     data = json.loads(json.dumps(BOOM))
     data["joints"][0]["actuator"].pop("relief_pressure")
-    theta = load_chart(ml.ManipulatorSpec.from_dict(data), points=5).q[:, 0]
     chart = load_chart(ml.ManipulatorSpec.from_dict(data), points=5)
+    theta = chart.q[:, 0]
     expected = (AREA * 18.0e6 / (G * np.cos(theta)) - M_LINK * L / 2) / L
     np.testing.assert_allclose(chart.payload, expected, rtol=1e-9)
     data["joints"][0]["actuator"] = {"type": "torque", "limit": 5.0e4}

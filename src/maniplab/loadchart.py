@@ -63,14 +63,12 @@ class LoadChart:
     @property
     def height(self) -> np.ndarray:
         """Height of the payload above the base, along -g, m, shape (P,)."""
-        return -self.position @ _unit(self.gravity)
+        return reach_height(self.position, self.gravity)[1]
 
     @property
     def reach(self) -> np.ndarray:
         """Horizontal distance of the payload from the vertical axis through the base, m, (P,)."""
-        down = _unit(self.gravity)
-        across = self.position - np.outer(self.position @ down, down)
-        return np.linalg.norm(across, axis=1)
+        return reach_height(self.position, self.gravity)[0]
 
     def limiting(self, k: int) -> str | None:
         """Name of the joint that limits pose ``k`` (None: none does)."""
@@ -187,10 +185,8 @@ class Statics:
         """What a chart shows of pose q: the loads, the holding ranges, the reach and the
         height."""
         g, h, position = self.loads(q)
-        down = _unit(self.gravity)
-        height = -position @ down
-        reach = np.linalg.norm(position + height * down)
         low, high = self.ranges(q)
+        reach, height = reach_height(position, self.gravity)
         return np.r_[g, h, low, high, reach, height]
 
     def ranges(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -216,8 +212,12 @@ class Statics:
         return (float(room[j]), j) if math.isfinite(room[j]) else (math.inf, -1)
 
 
-def _unit(v: np.ndarray) -> np.ndarray:
-    return np.asarray(v, dtype=float) / np.linalg.norm(v)
+def reach_height(position: np.ndarray, gravity: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Horizontal reach (distance from the vertical axis through the base) and height (along
+    -g) of ``position`` (m, shape (..., 3)), each shape (...)."""
+    down = np.asarray(gravity, dtype=float) / np.linalg.norm(gravity)
+    height = -(position @ down)
+    return np.linalg.norm(position + height[..., None] * down, axis=-1), height
 
 
 def _where(spec: ManipulatorSpec) -> str:

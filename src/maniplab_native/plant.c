@@ -447,9 +447,7 @@ static void start(ml_plant* p) {
   set_forces(p);
   hold(p);
   if (p->python_actuator) ml_mjcb_install(); /* in case someone replaced it meanwhile */
-  p->bad_kind = -1;
-  note_bad(p, mjWARN_BADQPOS, d->qpos, m->nq); /* mj_step's checks before its forward pass */
-  note_bad(p, mjWARN_BADQVEL, d->qvel, m->nv);
+  p->bad_kind = -1; /* q and q̇ were checked at the last step's end (check), or set from Python */
   mj_forward(m, d);
   if (p->nsticky || p->nlimited) settle(p);
   if (m->nu > n) friction_actuators(p);
@@ -519,7 +517,7 @@ static int fail(ml_plant* p, int status, int joint, int index) {
    them), actuator states beyond their bounds, the Python check. */
 static int check(ml_plant* p) {
   mjData* d = p->d;
-  note_bad(p, mjWARN_BADQPOS, d->qpos, p->m->nq); /* so the next step's start never meets one */
+  note_bad(p, mjWARN_BADQPOS, d->qpos, p->m->nq); /* what mj_step checks before its forward pass */
   note_bad(p, mjWARN_BADQVEL, d->qvel, p->m->nv);
   if (p->bad_kind != -1) {
     return fail(p, ML_UNSTABLE_MOTION, p->bad_index < p->n ? p->bad_index : -1, p->bad_kind);

@@ -155,9 +155,7 @@ def _from_module(name: str) -> type[ActuatorPlugin]:
     if module_name in _named_in_environment() and module_name not in _LOADED:
         _load(module_name)
     module = sys.modules.get(module_name)
-    if module is not None:
-        _LOADED.add(module_name)  # imported by the user's own code: named on purpose
-    else:
+    if module is None:
         raise PluginLookupError(
             f"{name!r} names module {module_name!r}, which was not loaded; name it with "
             f"--plugin {module_name} or {PLUGINS_VARIABLE}={module_name} (in Python: "
@@ -172,6 +170,7 @@ def _from_module(name: str) -> type[ActuatorPlugin]:
                 f"module {module_name!r} has no {attr!r} (actuator plugin {name!r})"
             ) from None
     _check_plugin(obj, name, lookup=True)
+    _LOADED.add(module_name)  # imported by the user's own code: named on purpose
     return obj
 
 

@@ -325,8 +325,8 @@ class Plant:
             out = np.where(np.isnan(arr) | ~has, out, arr)
         if not np.isfinite(out[has]).all():
             raise InputError(f"{what}: values must be finite, got {out.tolist()}")
-        huge = np.flatnonzero((np.abs(out) > mujoco.mjMAXVAL) & (what in ("q", "qd")))
-        if huge.size:
+        huge = np.flatnonzero(np.abs(out) > mujoco.mjMAXVAL)
+        if what in ("q", "qd") and huge.size:
             raise InputError(f"{what}: joint {self.joint_names[huge[0]]}: {out[huge[0]]:g} is "
                              f"beyond MuJoCo's bound on positions and velocities "
                              f"({mujoco.mjMAXVAL:g})")
