@@ -517,3 +517,97 @@ def test_writer_refuses_elements_it_would_lose() -> None:
                  objname="q1")
     with pytest.raises(NotImplementedError, match="sensors"):
         serialize(s)
+
+
+def _rod_inertial(body: mujoco.MjsBody, mass: float, length: float) -> None:
+    """An explicit inertial (the writer's way): a rod of ``length`` along x from the body's origin,
+    with a little inertia about its own axis."""
+    body.explicitinertial = True
+    body.mass = mass
+    body.ipos = [length / 2, 0.0, 0.0]
+    body.fullinertia = [1e-3, mass * length**2 / 12, mass * length**2 / 12, 0.0, 0.0, 0.0]
+
+
+def _cylinder_spec() -> mujoco.MjSpec:
+    """Two hinged links and a hydraulic cylinder between them: a spatial tendon from a site on the
+    parent to one on the child, pushed by a general actuator."""
+    s = mujoco.MjSpec()
+    parent = s.worldbody.add_body(name="parent", pos=[0.0, 0.0, 0.1])
+    parent.add_joint(name="shoulder", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0.0, 0.0, 1.0])
+    _rod_inertial(parent, mass=2.0, length=0.6)
+    parent.add_site(name="barrel", pos=[0.1, 1.0 / 3.0, 0.0])
+    child = parent.add_body(name="child", pos=[0.6, 0.0, 0.0])
+    child.add_joint(name="elbow", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0.0, 1.0, 0.0])
+    _rod_inertial(child, mass=1.0, length=0.5)
+    child.add_site(name="rod", pos=[0.2, 0.0, 0.1 / 3.0])
+    cylinder = s.add_tendon(name="cylinder", width=0.0125, rgba=[0.2, 0.3, 0.7, 1.0])
+    cylinder.stiffness = [1.0 / 7.0, 0.0, 0.0]
+    cylinder.damping = [0.3, 0.0, 0.0]
+    cylinder.springlength = [0.55, 0.55]
+    cylinder.limited = mujoco.mjtLimited.mjLIMITED_TRUE
+    cylinder.range = [0.1, 1.2]
+    cylinder.wrap_site("barrel")
+    cylinder.wrap_site("rod")
+    s.add_actuator(name="cylinder", target="cylinder", trntype=mujoco.mjtTrn.mjTRN_TENDON,
+                   gear=[2.0 / 3.0, 0, 0, 0, 0, 0], ctrllimited=mujoco.mjtLimited.mjLIMITED_TRUE,
+                   ctrlrange=[-100.0, 100.0])
+    return s
+
+
+def _dense_moment(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
+    moment = np.zeros((model.nu, model.nv))
+    mujoco.mju_sparse2dense(moment, data.actuator_moment, data.moment_rownnz, data.moment_rowadr,
+                            data.moment_colind)
+    return moment
+
+
+def test_spatial_tendon_on_sites_round_trips() -> None:
+    """A site-to-site cylinder and its actuator load from the MJCF text as MjSpec compiles them."""
+    s = _cylinder_spec()
+    xml = serialize(s)
+    sections = [child.tag for child in ET.fromstring(xml)]
+    assert sections.index("worldbody") < sections.index("tendon") < sections.index("actuator")
+    built, loaded = s.compile(), mujoco.MjModel.from_xml_string(xml)
+    assert built.ntendon == loaded.ntendon == 1
+    for name in ("barrel", "rod"):
+        assert loaded.site(name).id == built.site(name).id
+    for name in ["tendon_width", "tendon_rgba", "tendon_limited", "tendon_range",
+                 "tendon_stiffness", "tendon_damping", "tendon_lengthspring", "wrap_type",
+                 "wrap_objid", "site_bodyid", "site_pos", "actuator_trntype", "actuator_trnid",
+                 "actuator_gear", "actuator_ctrllimited", "actuator_ctrlrange"]:
+        assert np.array_equal(getattr(built, name), getattr(loaded, name)), name
+    assert loaded.actuator_trntype[0] == mujoco.mjtTrn.mjTRN_TENDON
+    assert loaded.actuator_gear[0, 0] == 2.0 / 3.0
+    rng = np.random.default_rng(RNG_SEED)
+    data_b, data_l = mujoco.MjData(built), mujoco.MjData(loaded)
+    for _ in range(3):
+        data_b.qpos[:] = data_l.qpos[:] = rng.uniform(-np.pi, np.pi, size=built.nq)
+        data_b.qvel[:] = data_l.qvel[:] = rng.normal(size=built.nv)
+        mujoco.mj_forward(built, data_b)
+        mujoco.mj_forward(loaded, data_l)
+        np.testing.assert_allclose(data_l.ten_length, data_b.ten_length, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(_dense_moment(loaded, data_l), _dense_moment(built, data_b),
+                                   rtol=0, atol=1e-12)
+        np.testing.assert_allclose(data_l.qfrc_passive, data_b.qfrc_passive, rtol=0, atol=1e-12)
+        # the cylinder's length is the distance between its two sites
+        ends = data_l.site("rod").xpos - data_l.site("barrel").xpos
+        assert abs(data_l.ten_length[0] - np.linalg.norm(ends)) <= 1e-12
+
+
+def _wrap_geom(s: mujoco.MjSpec) -> None:
+    s.body("child").add_geom(name="pin", size=[0.02, 0.0, 0.0])
+    s.tendons[0].wrap_geom("pin", "")
+
+
+def _fixed_tendon(s: mujoco.MjSpec) -> None:
+    s.add_tendon(name="coupling").wrap_joint("elbow", 1.0)
+
+
+@pytest.mark.parametrize("extend, what", [(_wrap_geom, "geom wraps of tendon 'cylinder'"),
+                                          (_fixed_tendon, "joint wraps of tendon 'coupling'")],
+                         ids=["geom-wrap", "fixed"])
+def test_writer_refuses_tendons_it_would_lose(extend: Any, what: str) -> None:
+    s = _cylinder_spec()
+    extend(s)
+    with pytest.raises(NotImplementedError, match=what):
+        serialize(s)

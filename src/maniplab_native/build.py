@@ -22,7 +22,7 @@ import tempfile
 import threading
 from pathlib import Path
 
-PLUGINS = ("maniplab.hydraulic", "maniplab.lugre")
+PLUGINS = ("maniplab.hydraulic", "maniplab.cylinder", "maniplab.lugre")
 """The MuJoCo plugins the library registers."""
 
 

@@ -75,5 +75,6 @@ double ml_control(const mjModel* m, const mjData* d, int actuator) {
 
 mjPLUGIN_LIB_INIT(maniplab) {
   ml_register_hydraulic();
+  ml_register_cylinder();
   ml_register_lugre();
 }

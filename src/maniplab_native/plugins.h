@@ -28,6 +28,7 @@ int ml_instance_actuator(const mjModel* m, int instance, const char* plugin);
 double ml_control(const mjModel* m, const mjData* d, int actuator);
 
 void ml_register_hydraulic(void);
+void ml_register_cylinder(void);
 void ml_register_lugre(void);
 
 #endif

@@ -26,7 +26,9 @@ mujoco_plugin              a MuJoCo engine plugin (C) that models the actuator i
                            the plant and every MuJoCo tool integrate it with no Python per
                            step (the hydraulic cylinder's ``maniplab.hydraulic``);
                            ``runs_in_mujoco`` tells sweeps they may run it in threads
-configure_mjcf             how the exported MJCF declares the actuator
+configure_mjcf, mount      how the exported MJCF declares the actuator and what it acts
+                           through (the joint, or a tendon between a cylinder's pins)
+check_joint                whether the parameters fit the joint (a cylinder's pins and stroke)
 steady, holding            operating points (the state and command that hold a force), the
                            plant's start "held against gravity", the default drive
 holding_range              load charts (the largest payload held at each pose)
@@ -34,7 +36,8 @@ drive                      how a controller makes the joint exert a desired forc
                            cascade's force-to-command inversion); the default inverts
                            ``steady``; an actuator without ``steady`` cannot be driven
 top_speed                  the controller's weighting of the joints, the PID baseline's limits
-stiffness, rates, lag      the step size the arm needs, the controller's default gains
+stiffness, rates, decays,  the step size the arm needs, the controller's default gains
+lag
 bounds                     the health verdict of a run (e.g. pressures beyond supply)
 check_state, state_limits  the plant's instability check after every step (limits: a cheap
                            comparison, check_state only for the message)
@@ -99,6 +102,46 @@ class Bound(NamedTuple):
     hard: bool = False
 
 
+class JointFrame(NamedTuple):
+    """What an actuator's parameters are checked against: its joint's kind, axis and limits.
+
+    Attributes:
+        prismatic: a sliding joint.
+        axis: unit axis in base coordinates, (3,).
+        limits: (lower, upper) in rad or m, or None.
+    """
+
+    prismatic: bool
+    axis: np.ndarray
+    limits: tuple[float, float] | None
+
+
+class ParameterProblem(ValueError):
+    """Parameters that do not fit their joint: ``field`` (below ``actuator``) and the message."""
+
+    def __init__(self, field: str, message: str) -> None:
+        super().__init__(message)
+        self.field = field
+
+
+@dataclasses.dataclass(frozen=True)
+class Mount:
+    """Where an actuator sits in the arm's MuJoCo model (:meth:`ActuatorPlugin.mount`).
+
+    Attributes:
+        spec: the model being built.
+        parent: the body before the joint.
+        child: the body the joint moves (its origin is the joint's).
+        origin: the joint's origin in ``parent``'s frame, m, (3,) (every body keeps the base
+            axes, so vectors in base axes at q = 0 need no rotation).
+    """
+
+    spec: mujoco.MjSpec
+    parent: mujoco.MjsBody
+    child: mujoco.MjsBody
+    origin: np.ndarray
+
+
 class Steady(NamedTuple):
     """A steady operating point of one actuator: its states (k,) and its command."""
 
@@ -159,6 +202,9 @@ class ActuatorPlugin(abc.ABC):
             signal of the Run too (the commands of the joints driven this way).
         command_unit: unit of the command.
         spring_name: what :meth:`stiffness` is, in messages ("oil spring").
+        variants: other models under the same ``type``, chosen by a key of the section.
+        variant_key: the key that chooses this model among its type's variants (``cylinder``
+            makes a ``hydraulic`` actuator the pinned two-chamber cylinder).
 
     Args:
         params: an instance of ``Params``.
@@ -166,6 +212,8 @@ class ActuatorPlugin(abc.ABC):
     """
 
     Params: ClassVar[type]
+    variants: ClassVar[tuple[type[ActuatorPlugin], ...]] = ()
+    variant_key: ClassVar[str | None] = None
     states: ClassVar[tuple[str, ...]] = ()
     state_units: ClassVar[tuple[str, ...]] = ()
     command: ClassVar[str] = "u"
@@ -188,6 +236,24 @@ class ActuatorPlugin(abc.ABC):
             raise TypeError(f"{cls.__qualname__}: the command {cls.command!r} is also a state")
         if cls.states and cls.derivatives is ActuatorPlugin.derivatives:
             raise TypeError(f"{cls.__qualname__} has states {cls.states} but no derivatives()")
+
+    @classmethod
+    def variant(cls, keys: Any = (), params: Any = None) -> type[ActuatorPlugin]:
+        """The model of this type for a section with these keys, or for these validated
+        parameters: the variant whose ``variant_key`` is among the keys (or whose ``Params``
+        the parameters are), else this class."""
+        for other in cls.variants:
+            if other.variant_key in keys or type(params) is other.Params:
+                return other
+        return cls
+
+    @classmethod
+    def check_joint(cls, params: Any, joint: JointFrame) -> None:
+        """Whether the validated parameters fit the joint (nothing to check by default).
+
+        Raises:
+            ParameterProblem: naming the field below ``actuator`` that does not fit.
+        """
 
     # --- the model ------------------------------------------------------------------------------
     @property
@@ -236,6 +302,12 @@ class ActuatorPlugin(abc.ABC):
         1/τ), that the step must resolve: all of them when MuJoCo integrates the states through
         the callbacks, or (``native``, an actuator with an engine plugin) those the plugin does not
         advance exactly (the hydraulic plugin takes its relief valve's stiff regime exactly)."""
+        return {}
+
+    def decays(self, native: bool = False) -> dict[str, float]:
+        """Stiff decay rates of the actuator's states, 1/s, by what they are (a chamber filling
+        through a wide-open orifice): the step must keep them stable, not resolve them (RK4 is
+        stable to λ dt = 2.78). ``native`` as for :meth:`rates`."""
         return {}
 
     def bounds(self) -> list[Bound]:
@@ -375,6 +447,10 @@ class ActuatorPlugin(abc.ABC):
         act.gainprm = [0.0] * 10
         act.biastype = mujoco.mjtBias.mjBIAS_USER
         set_command_range(act, self.command_limit)
+
+    def mount(self, act: mujoco.MjsActuator, mount: Mount) -> None:
+        """What the actuator acts through in the MuJoCo model: the default is its joint (as
+        ``act`` is made); a pinned cylinder adds its pins and a tendon between them."""
 
     def describe(self) -> str:
         """One line for tables (``maniplab info``): the type and its main parameters."""

@@ -146,10 +146,11 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
                       label=args.output.stem)
     wall = time.perf_counter() - start
     run.save(args.output)
-    peak = np.nanmax(np.abs(run["dP"])) / 1e6 if np.isfinite(run["dP"]).any() else 0.0
+    pressures = [np.abs(run[name]) for name in ("dP", "pA", "pB") if name in run.signals]
+    peak = max((float(np.nanmax(p)) for p in pressures if np.isfinite(p).any()), default=0.0)
     print(f"wrote {args.output}: {run.spec.name}, {run.t[-1]:g} s simulated in {wall:.2f} s "
           f"({run.t[-1] / wall:.0f}x real time); final q = "
-          f"{np.array2string(run.q[-1], precision=4)}; peak |dP| = {peak:.3g} MPa")
+          f"{np.array2string(run.q[-1], precision=4)}; peak pressure = {peak / 1e6:.3g} MPa")
     return 0
 
 

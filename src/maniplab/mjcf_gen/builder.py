@@ -14,7 +14,9 @@
   (:meth:`~maniplab.actuators.ActuatorPlugin.configure_mjcf`): MuJoCo's motor for a ``torque``
   joint; for a hydraulic one an instance of the engine plugin ``maniplab.hydraulic`` with its
   two activation states (ΔP, Q) and every parameter, which MuJoCo integrates itself, in the plant
-  and in any MuJoCo tool (:mod:`maniplab_native`);
+  and in any MuJoCo tool (:mod:`maniplab_native`); for a pinned cylinder an instance of
+  ``maniplab.cylinder`` (states pA, pB, spool) acting on a spatial tendon between sites at its
+  pins, ``<joint>/cylinder``, which MuJoCo draws;
 - the joints' friction as plain MuJoCo can model it: the viscous part as the joint's
   ``damping``, hybrid stick/slip friction as MuJoCo's dry friction ``frictionloss`` at the
   Coulomb level (MuJoCo has no stiction above it), and the limits as MuJoCo's soft joint limits;
@@ -46,6 +48,7 @@ import os
 import mujoco
 import numpy as np
 
+from maniplab.actuators.base import Mount
 from maniplab.actuators.plugin_mjcf import EnginePlugin, activate_plugins, set_plugin
 from maniplab.builtin import resolve_spec
 from maniplab.friction import FrictionModel
@@ -104,14 +107,16 @@ def _arm(spec: ManipulatorSpec) -> mujoco.MjSpec:
     visuals.add_assets(s, scene)
     visuals.add_world(s, scene)
     parent, at = s.worldbody, np.zeros(3)
+    mounts = []
     for index, joint in enumerate(spec.joints):
         body = _add_link(parent, joint, at)
         visuals.decorate_link(body, parent, joint, index, scene)
+        mounts.append(Mount(s, parent, body, at))
         parent, at = body, joint.offset
     tip = _add_end_effector(parent, spec.end_effector, at)
     visuals.decorate_end_effector(tip, spec.end_effector, scene)
-    for joint in spec.joints:
-        _add_actuator(s, joint)
+    for joint, mount in zip(spec.joints, mounts):
+        _add_actuator(s, joint, mount)
     for joint in spec.joints:
         if joint.friction.model is FrictionModel.lugre:
             _add_bristles(s, joint)
@@ -217,12 +222,14 @@ def _add_end_effector(parent: mujoco.MjsBody, ee: EndEffector, at: np.ndarray) -
     return body
 
 
-def _add_actuator(s: mujoco.MjSpec, joint: Joint) -> None:
+def _add_actuator(s: mujoco.MjSpec, joint: Joint, mount: Mount) -> None:
     """The actuator named after ``joint``, as its actuator model declares it
-    (:meth:`~maniplab.actuators.ActuatorPlugin.configure_mjcf`)."""
+    (:meth:`~maniplab.actuators.ActuatorPlugin.configure_mjcf`) and on what it acts
+    (:meth:`~maniplab.actuators.ActuatorPlugin.mount`: the joint, or a cylinder's tendon)."""
     act = s.add_actuator(name=joint.name, target=joint.name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
     model = model_of(joint)
     model.configure_mjcf(act)
+    model.mount(act, mount)
     plugin = model.mujoco_plugin()
     if plugin is not None:
         set_plugin(s, act, plugin)

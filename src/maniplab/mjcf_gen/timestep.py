@@ -7,7 +7,9 @@ Two kinds of dynamics bound the step of an explicit integrator (MuJoCo's RK4):
   of K^½ M(q)⁻¹ K^½ (K the diagonal of the joints' stiffnesses); the largest over the workspace
   must satisfy ω dt <= :data:`OSCILLATION`;
 - the actuators' own **rates** (a valve's lag 1/τ, a cylinder's leakage and relief, the valve and
-  the pressure ringing against each other): λ dt <= :data:`RATE` too.
+  the pressure ringing against each other): λ dt <= :data:`RATE` too; and their stiff decays (a
+  chamber filling through a wide-open orifice) only as far as RK4 stays stable, λ dt <=
+  :data:`STABLE`.
 
 The default step is the largest of 1, 2 or 5 × 10^k s that satisfies both, and at most
 :data:`DEFAULT` (1 ms). A plant asked for a coarser step takes as many sub-steps as it needs.
@@ -32,6 +34,10 @@ OSCILLATION = 0.5
 
 RATE = OSCILLATION
 """Largest λ dt for an actuator's rate (some are frequencies too; RK4 is stable to 2.8)."""
+
+STABLE = 2.5
+"""Largest λ dt for a stiff decay (:meth:`~maniplab.actuators.ActuatorPlugin.decays`), which
+the step must keep stable but need not resolve: RK4 is stable to λ dt = 2.78 on the real axis."""
 
 POSES = 48
 """Random poses over which the spring modes are searched (besides the home pose)."""
@@ -74,6 +80,9 @@ def step_limit(spec: ManipulatorSpec, model: mujoco.MjModel) -> StepLimit:
         for what, rate in actuator.rates(exact).items():
             if rate > 0.0 and RATE / rate < best.dt:
                 best = StepLimit(RATE / rate, spec.joints[j].name, what, rate)
+        for what, rate in actuator.decays(exact).items():
+            if rate > 0.0 and STABLE / rate < best.dt:
+                best = StepLimit(STABLE / rate, spec.joints[j].name, what, rate)
     modes = spring_modes(spec, model)
     omega, joint = modes.fastest, modes.joint
     if omega > 0.0 and OSCILLATION / omega < best.dt:

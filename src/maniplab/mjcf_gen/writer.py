@@ -8,7 +8,8 @@ as :func:`~maniplab.mjcf_gen.builder.build_model`.
 
 It is deliberately small: it covers the elements and attributes the builder uses (compiler, option,
 visual, statistic, engine plugin instances, textures, materials, bodies with
-inertial/joint/geom/site/camera/light, general and plugin actuators). An attribute is written only
+inertial/joint/geom/site/camera/light, spatial tendons through sites, general and plugin actuators
+on joints and tendons). An attribute is written only
 when it differs from the value of a freshly created element of the same kind, which is also what
 MuJoCo's XML parser assumes for an absent attribute.
 """
@@ -152,6 +153,35 @@ _LIGHT: _Attrs = (
     ("diffuse", "diffuse"),
     ("specular", "specular"),
 )
+_TENDON: _Attrs = (
+    ("name", "name"),
+    ("group", "group"),
+    ("limited", "limited"),
+    ("actfrclimited", "actuatorfrclimited"),
+    ("range", "range"),
+    ("actfrcrange", "actuatorfrcrange"),
+    ("solref_limit", "solreflimit"),
+    ("solimp_limit", "solimplimit"),
+    ("solref_friction", "solreffriction"),
+    ("solimp_friction", "solimpfriction"),
+    ("frictionloss", "frictionloss"),
+    ("springyield", "springyield"),
+    ("width", "width"),
+    ("margin", "margin"),
+    ("stiffness", "stiffness"),
+    ("damping", "damping"),
+    ("armature", "armature"),
+    ("rgba", "rgba"),
+    ("springlength", "springlength"),
+    ("material", "material"),
+)
+_WRAPS = {  # the MJCF element of each kind of tendon wrap (a geom wrap is a sphere until compiled)
+    mujoco.mjtWrap.mjWRAP_SITE: "site",
+    mujoco.mjtWrap.mjWRAP_SPHERE: "geom",
+    mujoco.mjtWrap.mjWRAP_CYLINDER: "geom",
+    mujoco.mjtWrap.mjWRAP_PULLEY: "pulley",
+    mujoco.mjtWrap.mjWRAP_JOINT: "joint",
+}
 _ACTUATOR: _Attrs = (
     ("name", "name"),
     ("gear", "gear"),
@@ -174,7 +204,7 @@ _PLUGIN_ACTUATOR = tuple(a for a in _ACTUATOR
                          if a[0] not in ("gaintype", "biastype", "gainprm", "biasprm"))
 """An engine plugin's actuator (``<plugin>``): the plugin computes the force, MJCF has no gain or
 bias for it."""
-_TRANSMISSION = {mujoco.mjtTrn.mjTRN_JOINT: "joint"}
+_TRANSMISSION = {mujoco.mjtTrn.mjTRN_JOINT: "joint", mujoco.mjtTrn.mjTRN_TENDON: "tendon"}
 _INT_ENUMS = {  # fields MjSpec stores as plain ints
     "integrator": mujoco.mjtIntegrator,
     "cone": mujoco.mjtCone,
@@ -239,7 +269,7 @@ def serialize(s: mujoco.MjSpec, comment: str | None = None) -> str:
 
     Raises:
         NotImplementedError: ``s`` holds elements this serialiser does not write (sensors,
-            tendons, ...), which would silently be lost.
+            fixed tendons, geom wraps, site transmissions, ...), which would silently be lost.
     """
     _check_supported(s)
     root = ET.Element("mujoco", model=s.modelname)
@@ -254,6 +284,7 @@ def serialize(s: mujoco.MjSpec, comment: str | None = None) -> str:
     _write_extension(root, s)
     _write_assets(root, s)
     _write_body(ET.SubElement(root, "worldbody"), s.worldbody, world=True)
+    _write_tendons(root, s.tendons)
     _write_actuators(root, s.actuators)
     ET.indent(root, space="  ")
     return ET.tostring(root, encoding="unicode") + "\n"
@@ -269,9 +300,14 @@ def comment_text(text: str) -> str:
 
 
 def _check_supported(s: mujoco.MjSpec) -> None:
-    kinds = ("sensors", "tendons", "equalities", "keys", "meshes", "hfields", "flexes", "pairs",
-             "excludes", "skins", "numerics", "texts", "tuples", "frames")
+    kinds = ("sensors", "equalities", "keys", "meshes", "hfields", "flexes", "pairs", "excludes",
+             "skins", "numerics", "texts", "tuples", "frames")
     present = [kind for kind in kinds if len(getattr(s, kind))]
+    for tendon in s.tendons:
+        wraps = sorted({_WRAPS[wrap.type] for wrap in tendon.path} - {"site"})
+        present += [f"{kind} wraps of tendon {tendon.name!r}" for kind in wraps]
+    present += [f"{_format(act.trntype)} transmission of actuator {act.name!r}"
+                for act in s.actuators if act.trntype not in _TRANSMISSION]
     if present:
         raise NotImplementedError(f"the MJCF writer cannot write {', '.join(present)} yet")
 
@@ -340,6 +376,18 @@ def _write_extension(root: ET.Element, s: mujoco.MjSpec) -> None:
             item = ET.SubElement(element, "instance", name=instance.name)
             for key, value in instance.config.items():
                 ET.SubElement(item, "config", key=key, value=value)
+
+
+def _write_tendons(root: ET.Element, tendons: Sequence[mujoco.MjsTendon]) -> None:
+    """The spatial tendons, each a path through sites (the only wraps ``_check_supported`` lets
+    through)."""
+    if not tendons:
+        return
+    section = ET.SubElement(root, "tendon")
+    for tendon in tendons:
+        element = _element(section, "spatial", tendon, _TENDON, _blank().tendon)
+        for wrap in tendon.path:
+            ET.SubElement(element, "site", site=wrap.target.name)
 
 
 def _write_actuators(root: ET.Element, actuators: Iterable[mujoco.MjsActuator]) -> None:
@@ -422,6 +470,7 @@ class _Blank:
     site: mujoco.MjsSite
     camera: mujoco.MjsCamera
     light: mujoco.MjsLight
+    tendon: mujoco.MjsTendon
     actuator: mujoco.MjsActuator
     texture: mujoco.MjsTexture
     material: mujoco.MjsMaterial
@@ -439,6 +488,7 @@ def _blank() -> _Blank:
         body.add_site(),
         body.add_camera(),
         body.add_light(),
+        s.add_tendon(),
         s.add_actuator(),
         s.add_texture(),
         s.add_material(),

@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 from pydantic import PlainValidator, TypeAdapter, ValidationError, ValidationInfo
 from pydantic_core import PydanticCustomError
 
-from maniplab.actuators.base import ActuatorPlugin
+from maniplab.actuators.base import ActuatorPlugin, JointFrame, ParameterProblem
 from maniplab.actuators.registry import BUILTIN, PluginLookupError, resolve
 from maniplab.schema import describe, plain, translate_errors
 from maniplab.schema.translate import choices, did_you_mean
@@ -88,7 +88,8 @@ def model_of(joint: Joint) -> ActuatorPlugin:
     actuator = joint.actuator
     if isinstance(actuator, UnresolvedActuator):
         raise PluginLookupError(f"joint {joint.name}, actuator: {actuator.problem}")
-    return resolve(actuator.type)(params_of(actuator), joint)
+    params = params_of(actuator)
+    return resolve(actuator.type).variant(params=params)(params, joint)
 
 
 def actuator_dict(actuator: Any) -> dict[str, Any]:
@@ -118,7 +119,7 @@ def _validated(value: Any) -> bool:
         return True
     kind = getattr(value, "type", None)
     return (dataclasses.is_dataclass(value) and isinstance(kind, str)
-            and getattr(resolve(kind), "Params", None) is type(value))
+            and getattr(resolve(kind).variant(params=value), "Params", None) is type(value))
 
 
 def validate_actuator(value: Any, info: ValidationInfo) -> Any:
@@ -151,6 +152,7 @@ def validate_actuator(value: Any, info: ValidationInfo) -> Any:
             stored = {k: v for k, v in value.items() if k != "type"}
             return UnresolvedActuator(type=name, params=stored, problem=problem)
         raise _problem(problem, "type") from None
+    plugin = plugin.variant(value)
     params = plugin.Params
     typed = _has_type_field(params)
     values = dict(value) if typed else {k: v for k, v in value.items() if k != "type"}
@@ -159,7 +161,22 @@ def validate_actuator(value: Any, info: ValidationInfo) -> Any:
     except ValidationError as exc:
         error = translate_errors(exc.errors(), root=params)
         raise _problem(error.problem, error.field) from None
+    _check_joint(plugin, validated, info)
     return validated if typed else PluginActuator(type=name, params=validated)
+
+
+def _check_joint(plugin: type[ActuatorPlugin], params: Any, info: ValidationInfo) -> None:
+    """The plugin's :meth:`~ActuatorPlugin.check_joint` against the joint's fields validated so
+    far (none when one of them failed: that error is reported)."""
+    data = info.data if isinstance(info.data, Mapping) else {}
+    if "type" not in data or "axis" not in data:
+        return
+    joint = JointFrame(prismatic=data["type"] == "P", axis=data["axis"].vector,
+                       limits=data.get("limits"))
+    try:
+        plugin.check_joint(params, joint)
+    except ParameterProblem as exc:
+        raise _problem(str(exc), exc.field) from None
 
 
 def _lookup_problem(name: str, exc: PluginLookupError) -> str:

@@ -111,19 +111,20 @@ def _child(schema: Any, part: str) -> Any:
 def _valid_keys(schema: Any, node: dict[str, Any]) -> list[str]:
     if schema != _ACTUATOR:
         return list(fields_of(schema))
-    params = _params_of_type(node.get("type"))
+    params = _params_of_type(node.get("type"), node)
     if params is not None:
         return list(dict.fromkeys(["type", *fields_of(params)]))
     # the type is unknown: the fields of every registered type (validation reports the type)
     return list(dict.fromkeys(k for p in registered().values() for k in ["type", *fields_of(p.Params)]))
 
 
-def _params_of_type(kind: Any) -> type | None:
-    """The ``Params`` dataclass of the actuator type ``kind`` names, if it names one."""
+def _params_of_type(kind: Any, node: dict[str, Any]) -> type | None:
+    """The ``Params`` dataclass of the actuator type ``kind`` names (the variant the section's
+    keys choose), if it names one."""
     if not isinstance(kind, str):
         return None
     try:
-        return resolve(kind).Params
+        return resolve(kind).variant(node).Params
     except PluginLookupError:
         return None
 

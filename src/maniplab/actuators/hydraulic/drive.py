@@ -72,7 +72,7 @@ class PressureLoop:
         self._integral = np.zeros_like(self._area)
 
     def flow(self, dP_d: ArrayLike, dP: ArrayLike, qd: ArrayLike,
-             qd_ref: ArrayLike | None = None) -> Array:
+             qd_ref: ArrayLike | None = None, area: ArrayLike | None = None) -> Array:
         """One sample of the loop: Φ, m³/s, (k,).
 
         Args:
@@ -80,8 +80,12 @@ class PressureLoop:
             dP: measured ΔP, Pa, (k,).
             qd: joint velocities, rad/s or m/s, (k,).
             qd_ref: reference joint velocities for the speed error, (k,) (default ``qd``).
+            area: A at this sample, (k,), where it changes with the pose (default: the one
+                given at construction).
         """
         dP_d, dP, qd = (np.asarray(a, dtype=float) for a in (dP_d, dP, qd))
+        if area is not None:
+            self._area = np.asarray(area, dtype=float)
         if self._prev is not None:
             self._rate += self._alpha * ((dP_d - self._prev) / self.dt - self._rate)
         self._prev = dP_d

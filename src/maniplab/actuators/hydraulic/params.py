@@ -1,11 +1,16 @@
-"""Parameters of the valve-controlled hydraulic cylinder, the ``actuator:`` section of a joint."""
+"""Parameters of the hydraulic actuators, the ``actuator:`` section of a joint: the lumped
+cylinder of the paper's eq. (4), and a two-chamber cylinder pinned across its joint."""
 
 from __future__ import annotations
 
-from typing import ClassVar, Literal
+import math
+from typing import Annotated, ClassVar, Literal
+
+from pydantic import BeforeValidator, ValidationInfo, field_validator
 
 from maniplab.actuators.hydraulic.valve import relief_gain
-from maniplab.schema import NonNegative, Positive, validated
+from maniplab.schema import NonNegative, Positive, Vec3, validated
+from maniplab.schema.fields import sequence
 
 
 @validated
@@ -53,3 +58,147 @@ class HydraulicActuator:
         if self.relief_pressure is None:
             return 0.0
         return relief_gain(self.valve_gain, self.current_limit, self.relief_pressure)
+
+
+@validated
+class Pins:
+    """Where a cylinder is pinned, from its joint's origin in base axes at q = 0, m.
+
+    Attributes:
+        parent: on the body before the joint, (3,).
+        child: on the body the joint moves, (3,).
+    """
+
+    EXAMPLE: ClassVar[str] = "parent: [0.3, 0, -0.2], child: [0.9, 0, 0.1]"
+
+    parent: Vec3
+    child: Vec3
+
+
+@validated
+class Cylinder:
+    """A cylinder's dimensions.
+
+    Attributes:
+        pins: where it is pinned (:class:`Pins`).
+        bore: piston diameter, m.
+        rod: rod diameter, m (smaller than the bore).
+        min_length: pin to pin, fully retracted, m.
+        stroke: m.
+        dead_volumes: oil that is not swept, cap side and rod side, hoses included, m³.
+        double_rod: a rod on both sides (both areas the annulus).
+    """
+
+    EXAMPLE: ClassVar[str] = ("pins: {parent: [...], child: [...]}, bore: 0.1, rod: 0.056, "
+                              "min_length: 1.2, stroke: 0.535, dead_volumes: [2e-4, 2e-4]")
+
+    pins: Pins
+    bore: Positive
+    rod: Positive
+    min_length: Positive
+    stroke: Positive
+    dead_volumes: Annotated[tuple[Positive, Positive], BeforeValidator(sequence)]
+    double_rod: bool = False
+
+    @field_validator("rod")
+    @classmethod
+    def _thinner_than_bore(cls, rod: float, info: ValidationInfo) -> float:
+        bore = info.data.get("bore")
+        if bore is not None and not rod < bore:
+            raise ValueError(f"rod {rod:g} m is not thinner than the bore {bore:g} m")
+        return rod
+
+    @property
+    def cap_area(self) -> float:
+        """A_A, m²: the bore's (the annulus for a double rod)."""
+        return self.rod_area if self.double_rod else math.pi / 4.0 * self.bore**2
+
+    @property
+    def rod_area(self) -> float:
+        """A_B, m²: the annulus."""
+        return math.pi / 4.0 * (self.bore**2 - self.rod**2)
+
+    @property
+    def max_length(self) -> float:
+        """Pin to pin fully extended, m."""
+        return self.min_length + self.stroke
+
+
+@validated
+class Valve:
+    """A proportional directional valve with four metering edges (P→A, B→T, P→B, A→T).
+
+    Attributes:
+        nominal_flow: flow through the A edges at full opening and the nominal drop, m³/s.
+        nominal_pressure_drop: at which nominal_flow is rated, Pa: across the whole valve (two
+            edges in series, as catalogues rate them) unless ``per_edge``.
+        per_edge: the nominal drop is across one edge.
+        flow_ratio: the B edges' flow over the A edges' at the same opening and drop.
+        tau: the spool's time constant, s.
+        current_limit: the current that opens it fully, A.
+    """
+
+    EXAMPLE: ClassVar[str] = "nominal_flow: 9.0e-4, nominal_pressure_drop: 35.0e5"
+
+    nominal_flow: Positive
+    nominal_pressure_drop: Positive
+    per_edge: bool = False
+    flow_ratio: Positive = 1.0
+    tau: Positive = 0.01
+    current_limit: Positive = 1.0
+
+    @property
+    def edge_drop(self) -> float:
+        """The nominal drop across one edge, Pa."""
+        return self.nominal_pressure_drop if self.per_edge else 0.5 * self.nominal_pressure_drop
+
+    @property
+    def gain_a(self) -> float:
+        """K_A: an A edge's flow at full opening per √Pa of drop, m³/(s·√Pa)."""
+        return self.nominal_flow / math.sqrt(self.edge_drop)
+
+    @property
+    def gain_b(self) -> float:
+        """K_B = flow_ratio K_A."""
+        return self.flow_ratio * self.gain_a
+
+
+@validated
+class PinnedHydraulicActuator:
+    """A two-chamber cylinder pinned across its joint, fed by a four-edge valve.
+
+    Attributes:
+        type: "hydraulic" (a ``cylinder`` section makes it this model, not the lumped one).
+        cylinder: its dimensions and pins (:class:`Cylinder`).
+        valve: the valve that feeds it (:class:`Valve`).
+        supply_pressure: Ps, Pa.
+        tank_pressure: Pt, Pa; anti-cavitation valves keep each chamber at least at it.
+        relief_pressure: the setting of a relief valve on each chamber, Pa, or None for none.
+        bulk_modulus: E of the oil (and hoses), Pa.
+        leakage: across the piston, m³/(s·Pa).
+    """
+
+    EXAMPLE: ClassVar[str] = ("type: hydraulic, cylinder: {...}, valve: {...}, "
+                              "supply_pressure: 8.0e6")
+
+    type: Literal["hydraulic"]
+    cylinder: Cylinder
+    valve: Valve
+    supply_pressure: Positive
+    tank_pressure: NonNegative = 0.0
+    relief_pressure: Positive | None = None
+    bulk_modulus: Positive = 1.4e9
+    leakage: NonNegative = 0.0
+
+    def __post_init__(self) -> None:
+        if not self.supply_pressure > self.tank_pressure:
+            raise ValueError(f"supply_pressure {self.supply_pressure:g} Pa is not above "
+                             f"tank_pressure {self.tank_pressure:g} Pa")
+        if self.relief_pressure is not None and not self.relief_pressure > self.tank_pressure:
+            raise ValueError(f"relief_pressure {self.relief_pressure:g} Pa is not above "
+                             f"tank_pressure {self.tank_pressure:g} Pa")
+
+    @property
+    def holding_pressure(self) -> float:
+        """The highest chamber pressure: the relief's setting, else the supply's, Pa."""
+        return self.relief_pressure or self.supply_pressure

@@ -1,0 +1,87 @@
+"""The two-chamber cylinder's equations, evaluated by the C code the engine plugin runs.
+
+The equations are written once, in ``maniplab_native/chambers.h`` (see its comment for them):
+the engine plugin ``maniplab.cylinder`` integrates them inside MuJoCo, and the functions here call
+the same code for the actuator model's derivatives, steady state and checks.
+"""
+
+from __future__ import annotations
+
+import ctypes
+from ctypes import c_double, c_void_p
+
+import numpy as np
+
+from maniplab.actuators.hydraulic.params import PinnedHydraulicActuator
+from maniplab.clib import Functions
+
+LAMINAR = 0.05
+"""The orifices turn laminar (their flow linear in the drop) below this share of the valve's
+nominal drop per edge: it keeps their slope, and so the step the arm needs, finite."""
+
+
+class ChambersLaw(ctypes.Structure):
+    """``ml_chambers`` (chambers.h): one cylinder's parameters as the C law uses them."""
+
+    _fields_ = [(name, c_double) for name in (
+        "area_a", "area_b", "dead_a", "dead_b", "min_length", "stroke", "bulk_modulus",
+        "leakage", "gain_a", "gain_b", "laminar", "supply", "tank", "relief", "inv_tau",
+        "inv_current")]
+
+
+_D = c_double
+_P = c_void_p
+_LAW = ctypes.POINTER(ChambersLaw)
+_C = Functions({
+    "ml_chambers_rates": (None, [_LAW, _D, _D, _D, _D, _D, _D, _P]),
+    "ml_chambers_force": (_D, [_LAW, _D, _D]),
+    "ml_chambers_flows": (None, [_LAW, _D, _D, _D, _D, _P]),
+})
+"""The C functions (``maniplab_native/chambers.c``)."""
+
+
+def chambers_law(p: PinnedHydraulicActuator) -> ChambersLaw:
+    """The C law's parameters of a pinned cylinder's spec."""
+    c, v = p.cylinder, p.valve
+    return ChambersLaw(
+        area_a=c.cap_area, area_b=c.rod_area, dead_a=c.dead_volumes[0], dead_b=c.dead_volumes[1],
+        min_length=c.min_length, stroke=c.stroke, bulk_modulus=p.bulk_modulus,
+        leakage=p.leakage, gain_a=v.gain_a, gain_b=v.gain_b, laminar=LAMINAR * v.edge_drop,
+        supply=p.supply_pressure, tank=p.tank_pressure, relief=p.relief_pressure or 0.0,
+        inv_tau=1.0 / v.tau, inv_current=1.0 / v.current_limit)
+
+
+def plugin_config(p: PinnedHydraulicActuator) -> dict[str, float]:
+    """The engine plugin's config (the names ``cylinder.c`` reads)."""
+    law = chambers_law(p)
+    config = {name: getattr(law, name) for name in (
+        "area_a", "area_b", "dead_a", "dead_b", "min_length", "stroke", "bulk_modulus",
+        "leakage", "gain_a", "gain_b", "laminar")}
+    config |= {"supply_pressure": p.supply_pressure, "tank_pressure": p.tank_pressure,
+               "valve_tau": p.valve.tau, "current_limit": p.valve.current_limit}
+    if p.relief_pressure is not None:
+        config["relief_pressure"] = p.relief_pressure
+    return config
+
+
+def rates(law: ChambersLaw, x: np.ndarray, u: float, s: float, sdot: float) -> np.ndarray:
+    """(dpA/dt, dpB/dt, dx/dt) at states x = (pA, pB, spool), current u (A, clipped), length s
+    (m) and its rate (m/s): Pa/s, Pa/s, 1/s, shape (3,)."""
+    out = np.empty(3)
+    _C().ml_chambers_rates(ctypes.byref(law), float(x[0]), float(x[1]), float(x[2]), float(u),
+                           float(s), float(sdot), out.ctypes.data)
+    return out
+
+
+def force(law: ChambersLaw, pa: float, pb: float) -> float:
+    """pA A_A - pB A_B with the pressures within [Pt, p_r], N."""
+    return float(_C().ml_chambers_force(ctypes.byref(law), float(pa), float(pb)))
+
+
+def flows(law: ChambersLaw, x: np.ndarray, s: float) -> np.ndarray:
+    """(Q_A, Q_B, V_A, V_B): the valve's flows into the chambers (m³/s) at states x and the
+    chamber volumes at length s (m³)."""
+    out = np.empty(4)
+    _C().ml_chambers_flows(ctypes.byref(law), float(x[0]), float(x[1]), float(x[2]), float(s),
+                           out.ctypes.data)
+    return out

@@ -1,0 +1,285 @@
+"""A two-chamber cylinder pinned across its joint, fed by a four-edge valve, as an actuator plugin.
+
+States pA, pB (cap- and rod-side pressures, Pa) and the spool's opening x; command i_v (valve
+current, A). The equations are ``maniplab_native/chambers.h``'s (:mod:`.chambers`); the
+cylinder's length s(q) and moment arm r(q) are :mod:`.geometry`'s. The joint force is
+(pA A_A - pB A_B) r(q).
+
+In the arm's MuJoCo model the cylinder is a spatial tendon between two sites at its pins, driven
+by the engine plugin ``maniplab.cylinder``: MuJoCo computes s, ds/dt and the moment arm itself
+and draws the cylinder.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any, ClassVar
+
+import mujoco
+import numpy as np
+from scipy import optimize
+
+from maniplab.actuators.base import (
+    ActuatorPlugin,
+    Bound,
+    JointFrame,
+    Mount,
+    ParameterProblem,
+    Steady,
+    set_command_range,
+)
+from maniplab.actuators.hydraulic import chambers
+from maniplab.actuators.hydraulic.cylinder import PRESSURE_LIMIT
+from maniplab.actuators.hydraulic.geometry import PinGeometry
+from maniplab.actuators.hydraulic.params import PinnedHydraulicActuator
+from maniplab.actuators.plugin_mjcf import EnginePlugin
+
+if TYPE_CHECKING:
+    from maniplab.actuators.drive import ForceDrive
+    from maniplab.spec import ControlSpec
+
+MUJOCO_PLUGIN = "maniplab.cylinder"
+"""The MuJoCo engine plugin (C, :mod:`maniplab_native`) that integrates the two chambers."""
+
+TENDON_SUFFIX = "/cylinder"
+"""The tendon of joint j's cylinder is ``<j>/cylinder``; its pins are sites ``<j>/cylinder_base``
+(on the body before the joint) and ``<j>/cylinder_rod`` (on the body it moves)."""
+
+COLOUR = (0.85, 0.65, 0.13, 1.0)
+"""The cylinders' colour in renders: hydraulic yellow."""
+
+
+def geometry_of(params: PinnedHydraulicActuator, joint: JointFrame) -> PinGeometry:
+    """The cylinder's pin geometry on ``joint``."""
+    pins = params.cylinder.pins
+    return PinGeometry(pins.parent, pins.child, joint.axis, joint.prismatic)
+
+
+class PinnedCylinder(ActuatorPlugin):
+    """A pinned two-chamber cylinder: states (pA, pB, spool), command i_v clipped at the valve's
+    ``current_limit``."""
+
+    Params: ClassVar[type] = PinnedHydraulicActuator
+    variant_key: ClassVar[str | None] = "cylinder"
+    states: ClassVar[tuple[str, ...]] = ("pA", "pB", "spool")
+    state_units: ClassVar[tuple[str, ...]] = ("Pa", "Pa", "")
+    command: ClassVar[str] = "iv"
+    command_unit: ClassVar[str] = "A"
+    spring_name: ClassVar[str] = "oil spring"
+    params: PinnedHydraulicActuator
+
+    @classmethod
+    def check_joint(cls, params: Any, joint: JointFrame) -> None:
+        """The pins must give a moment arm that does not vanish within the joint's limits, and
+        the stroke must span the lengths those limits need.
+
+        Raises:
+            ParameterProblem: naming ``cylinder.pins``, ``cylinder.stroke``, ...
+        """
+        c = params.cylinder
+        problem = geometry_of(params, joint).problem(joint.limits, c.min_length, c.max_length)
+        if problem is not None:
+            raise ParameterProblem(problem.field, problem.message)
+
+    @functools.cached_property
+    def geometry(self) -> PinGeometry:
+        """s(q) and r(q) on this joint."""
+        j = self.joint
+        return geometry_of(self.params, JointFrame(j.prismatic, j.axis_vector, j.limits))
+
+    @functools.cached_property
+    def law(self) -> chambers.ChambersLaw:
+        """The parameters as the C law takes them."""
+        return chambers.chambers_law(self.params)
+
+    @property
+    def command_limit(self) -> float:
+        """The valve's ``current_limit``, A."""
+        return self.params.valve.current_limit
+
+    # --- the model ------------------------------------------------------------------------------
+    def initial_state(self) -> np.ndarray:
+        """Both chambers at tank pressure, the spool closed."""
+        t = self.params.tank_pressure
+        return np.array([t, t, 0.0])
+
+    def derivatives(self, x: np.ndarray, u: float, q: float, v: float) -> np.ndarray:
+        """(dpA/dt, dpB/dt, dx/dt) with s = s(q) and ds/dt = r(q) v."""
+        s, r = float(self.geometry.length(q)), float(self.geometry.arm(q))
+        return chambers.rates(self.law, x, u, s, r * v)
+
+    def cylinder_force(self, x: np.ndarray) -> float:
+        """pA A_A - pB A_B along the pins (the pressures within [Pt, p_r]), N."""
+        return chambers.force(self.law, float(x[0]), float(x[1]))
+
+    def force(self, x: np.ndarray, u: float, q: float, v: float) -> float:
+        """(pA A_A - pB A_B) r(q), N·m or N."""
+        return self.cylinder_force(x) * float(self.geometry.arm(q))
+
+    def holding_range(self, q: float) -> tuple[float, float]:
+        """The joint forces held with the valve closed: one chamber at the relief's setting (or
+        the supply's), the other at tank, times r(q)."""
+        p, c = self.params, self.params.cylinder
+        top, low = p.holding_pressure, p.tank_pressure
+        push, pull = top * c.cap_area - low * c.rod_area, low * c.cap_area - top * c.rod_area
+        r = float(self.geometry.arm(q))
+        return (pull * r, push * r) if r > 0.0 else (push * r, pull * r)
+
+    def holding(self, force: float, q: float) -> np.ndarray:
+        """Pressures that hold ``force`` with the spool closed and the lower one at tank."""
+        c, tank = self.params.cylinder, self.params.tank_pressure
+        f = force / float(self.geometry.arm(q))
+        pa = (f + tank * c.rod_area) / c.cap_area
+        if pa >= tank:
+            return np.array([pa, tank, 0.0])
+        return np.array([tank, (tank * c.cap_area - f) / c.rod_area, 0.0])
+
+    def steady(self, force: float, q: float, v: float) -> Steady:
+        """The pressures and spool that hold ``force`` at joint speed v (the valve's flows
+        balancing the piston's and the leakage), and the current that opens the spool so far
+        (infinite where it would have to open beyond full)."""
+        x0 = self.holding(force, q)
+        s, r = float(self.geometry.length(q)), float(self.geometry.arm(q))
+        if v == 0.0 and self.params.leakage == 0.0:
+            return Steady(x0, 0.0)
+        c = self.params.cylinder
+        f = force / r
+
+        def residual(z: np.ndarray) -> np.ndarray:
+            pa, spool = z
+            pb = (pa * c.cap_area - f) / c.rod_area
+            rate = chambers.rates(self.law, np.array([pa, pb, spool]), 0.0, s, r * v)
+            return rate[:2] / self.params.supply_pressure * 1e-9
+
+        guess = np.array([x0[0], math.copysign(0.5, v or 1.0)])
+        z, _, found, _ = optimize.fsolve(residual, guess, full_output=True, xtol=1e-12)
+        pa, spool = float(z[0]), float(z[1])
+        state = np.array([pa, (pa * c.cap_area - f) / c.rod_area, spool])
+        if found != 1 or abs(spool) > 1.0:
+            return Steady(state, math.copysign(math.inf, spool))
+        return Steady(state, spool * self.params.valve.current_limit)
+
+    # --- what bounds it -------------------------------------------------------------------------
+    def bounds(self) -> list[Bound]:
+        """Each chamber within the supply pressure; never beyond the relief's setting."""
+        p = self.params
+        out = [Bound(name, p.supply_pressure, "supply pressure") for name in ("pA", "pB")]
+        if p.relief_pressure is not None:
+            out += [Bound(name, p.relief_pressure * (1.0 + 1e-9), "relief pressure", hard=True)
+                    for name in ("pA", "pB")]
+        return out
+
+    def _pressure_bound(self) -> float:
+        p = self.params
+        return PRESSURE_LIMIT * max(p.supply_pressure, p.relief_pressure or 0.0)
+
+    def check_state(self, x: np.ndarray) -> str | None:
+        """A chamber pressure beyond PRESSURE_LIMIT times the supply (or relief) pressure, or
+        NaN, is unstable."""
+        bound = self._pressure_bound()
+        for name, value in zip(("pA", "pB"), x[:2]):
+            if not abs(value) <= bound:
+                return (f"{name} = {value:.4g} Pa is beyond {PRESSURE_LIMIT:g} times the supply "
+                        f"pressure ({self.params.supply_pressure:.4g} Pa)")
+        return None
+
+    def state_limits(self) -> tuple[float, ...]:
+        """(bound, bound, inf): the pressures as :meth:`check_state` judges them."""
+        bound = self._pressure_bound()
+        return (bound, bound, math.inf)
+
+    # --- speed, stiffness and rates -------------------------------------------------------------
+    def piston_speed(self) -> float:
+        """The slower of the piston's no-load extension and retraction speeds at full opening,
+        m/s: each edge passes K sqrt(drop), and the chamber pressures balance (pA A_A = pB A_B)."""
+        p, c, law = self.params, self.params.cylinder, self.law
+        ps, pt, a, b = p.supply_pressure, p.tank_pressure, c.cap_area, c.rod_area
+        resist = a**3 / law.gain_a**2 + b**3 / law.gain_b**2
+        out = (a * ps - b * pt) / resist
+        back = (b * ps - a * pt) / resist
+        return math.sqrt(max(min(out, back), 0.0))
+
+    @property
+    def top_speed(self) -> float:
+        """:meth:`piston_speed` over the moment arm at mid-range, rad/s or m/s."""
+        limits = self.joint.limits or (0.0, 0.0)
+        return self.piston_speed() / abs(float(self.geometry.arm(0.5 * sum(limits))))
+
+    @property
+    def lag(self) -> float:
+        """The spool's time constant, s."""
+        return self.params.valve.tau
+
+    def stiffness(self, q: float) -> float:
+        """E (A_A²/V_A + A_B²/V_B) r(q)², the two oil columns in series with the rod, at the
+        chamber volumes of position q, N·m/rad or N/m."""
+        c = self.params.cylinder
+        s, r = float(self.geometry.length(q)), float(self.geometry.arm(q))
+        _, _, va, vb = chambers.flows(self.law, self.initial_state(), s)
+        return self.params.bulk_modulus * (c.cap_area**2 / va + c.rod_area**2 / vb) * r**2
+
+    def _smallest_volume(self) -> float:
+        return min(self.params.cylinder.dead_volumes)
+
+    def rates(self, native: bool = False) -> dict[str, float]:
+        """The spool's lag 1/τ and the pressure decay of the leakage across the piston,
+        Le E (1/V_A0 + 1/V_B0), 1/s."""
+        p = self.params
+        leak = p.leakage * p.bulk_modulus * sum(1.0 / v for v in p.cylinder.dead_volumes)
+        return {"spool lag": 1.0 / p.valve.tau, "leakage": leak}
+
+    def decays(self, native: bool = False) -> dict[str, float]:
+        """A chamber filling through a wide-open edge: E/V_0 K / sqrt(p_l), the orifice's
+        steepest slope (at its laminar transition) on the smaller dead volume, 1/s."""
+        law = self.law
+        slope = max(law.gain_a, law.gain_b) / math.sqrt(law.laminar)
+        return {"chamber filling": self.params.bulk_modulus / self._smallest_volume() * slope}
+
+    # --- in MuJoCo --------------------------------------------------------------------------------
+    def mujoco_plugin(self) -> EnginePlugin:
+        """The engine plugin ``maniplab.cylinder`` with its three states and every parameter."""
+        return EnginePlugin(MUJOCO_PLUGIN, len(self.states), chambers.plugin_config(self.params))
+
+    def configure_mjcf(self, act: mujoco.MjsActuator) -> None:
+        """The valve current's range ±current_limit."""
+        set_command_range(act, self.command_limit)
+
+    def mount(self, act: mujoco.MjsActuator, mount: Mount) -> None:
+        """Sites at the pins and a spatial tendon between them (drawn as thick as the bore),
+        which the actuator acts on."""
+        name, pins = self.joint.name, self.params.cylinder.pins
+        base = mount.parent.add_site(name=name + TENDON_SUFFIX + "_base",
+                                     pos=list(mount.origin + np.asarray(pins.parent)))
+        rod = mount.child.add_site(name=name + TENDON_SUFFIX + "_rod", pos=list(pins.child))
+        for site in (base, rod):
+            site.size = [0.25 * self.params.cylinder.bore, 0.0, 0.0]
+            site.rgba = list(COLOUR)
+        tendon = mount.spec.add_tendon(name=name + TENDON_SUFFIX)
+        tendon.width = 0.5 * self.params.cylinder.bore
+        tendon.rgba = list(COLOUR)
+        tendon.wrap_site(base.name)
+        tendon.wrap_site(rod.name)
+        act.trntype = mujoco.mjtTrn.mjTRN_TENDON
+        act.target = tendon.name
+
+    def describe(self) -> str:
+        """``cylinder ⌀100/56 x 535 mm, r 0.21..0.30 m, Ps 8 MPa``."""
+        p, c = self.params, self.params.cylinder
+        lo, hi = self.joint.limits or (0.0, 0.0)
+        arms = np.abs(self.geometry.arm(np.linspace(lo, hi, 33)))
+        unit = "" if self.joint.prismatic else " m"
+        relief = f" relief {p.relief_pressure / 1e6:g} MPa" if p.relief_pressure else ""
+        return (f"cylinder ⌀{c.bore * 1e3:g}/{c.rod * 1e3:g} x {c.stroke * 1e3:g} mm, "
+                f"r {arms.min():.3g}..{arms.max():.3g}{unit}, "
+                f"{p.valve.nominal_flow * 6e4:.3g} L/min valve, "
+                f"Ps {p.supply_pressure / 1e6:g} MPa{relief}")
+
+    @classmethod
+    def drive(cls, actuators: Sequence[ActuatorPlugin], joints: Sequence[int], *, dt: float,
+              settings: ControlSpec) -> ForceDrive:
+        """The load-pressure loop with the valve inversion (:class:`.pinned_drive.ChamberDrive`)."""
+        from maniplab.actuators.hydraulic.pinned_drive import ChamberDrive
+
+        return ChamberDrive(actuators, joints, dt=dt, settings=settings)

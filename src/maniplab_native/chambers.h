@@ -1,0 +1,98 @@
+/* The pinned two-chamber cylinder with its four-edge valve: the one implementation in maniplab.
+
+   The engine plugin maniplab.cylinder (cylinder.c) and, through the exported functions of
+   chambers.c and ctypes, the Python actuator model (maniplab.actuators.hydraulic.pinned)
+   evaluate these equations.
+
+   States: the cap-side pressure pA and the rod-side pressure pB (Pa), and the spool's opening
+   x (-1..1). Inputs: the valve current u (A, clipped), the cylinder's length s (pin to pin, m)
+   and its rate ds/dt (m/s).
+
+     dx/dt  = (u / i_max - x) / tau                               (the spool's lag)
+     dpA/dt = E / V_A (Q_A - A_A ds/dt - Q_L)                     (cap side)
+     dpB/dt = E / V_B (Q_B + A_B ds/dt + Q_L)                     (rod side)
+
+   with the chamber volumes V_A = V_A0 + A_A y and V_B = V_B0 + A_B (stroke - y), y = s - s_min
+   the piston's travel (held within the stroke), the leakage across the piston Q_L = Le (pA - pB),
+   and the valve's four metering edges, each an orifice Q = K x g(dp):
+
+     x > 0:  P -> A  K_A x g(Ps - pA)     B -> T  K_B x g(pB - Pt)
+     x < 0:  P -> B  K_B |x| g(Ps - pB)   A -> T  K_A |x| g(pA - Pt)
+
+   Q_A = K_A (x+ g(Ps - pA) - x- g(pA - Pt)),  Q_B = K_B (x- g(Ps - pB) - x+ g(pB - Pt)).
+   g(dp) = dp / (dp^2 + p_l^2)^(1/4) is the orifice's square root sign(dp) sqrt(|dp|), made
+   laminar (linear) below the transition pressure p_l so that its slope stays finite.
+
+   Each chamber has an ideal relief valve to tank at p_r (optional) and an ideal anti-cavitation
+   check valve from tank: its pressure is held within [Pt, p_r]. The plugin takes them as bounds
+   after each step; within a step the force sees the pressures within them.
+
+   The cylinder's force along its pins, positive pushing them apart: F = pA A_A - pB A_B (N). */
+#ifndef MANIPLAB_CHAMBERS_H_
+#define MANIPLAB_CHAMBERS_H_
+
+#include <math.h>
+
+typedef struct {
+  double area_a, area_b;      /* A_A, A_B: cap and rod side areas, m^2 */
+  double dead_a, dead_b;      /* V_A0, V_B0: dead volumes, hoses included, m^3 */
+  double min_length, stroke;  /* s_min (pin to pin, retracted) and the stroke, m */
+  double bulk_modulus;        /* E, Pa */
+  double leakage;             /* Le, across the piston, m^3/(s Pa) */
+  double gain_a, gain_b;      /* K_A, K_B: edge flow at full opening per sqrt(Pa) */
+  double laminar;             /* p_l, the orifices' transition pressure, Pa */
+  double supply, tank;        /* Ps, Pt, Pa */
+  double relief;              /* p_r, Pa; 0: no relief valve */
+  double inv_tau;             /* 1/tau, 1/s */
+  double inv_current;         /* 1/i_max, 1/A */
+} ml_chambers;
+
+/* The orifice's signed square root g(dp), sqrt(Pa). */
+static inline double ml_orifice_root(double dp, double laminar) {
+  return dp / sqrt(sqrt(dp * dp + laminar * laminar));
+}
+
+/* A chamber pressure within the valves' bounds [Pt, p_r] (p_r only with a relief valve). */
+static inline double ml_chamber_bounded(const ml_chambers* c, double p) {
+  if (p < c->tank) return c->tank;
+  if (c->relief > 0.0 && p > c->relief) return c->relief;
+  return p;
+}
+
+/* The chamber volumes (V_A, V_B) at length s, m^3. */
+static inline void ml_chamber_volumes(const ml_chambers* c, double s, double* va, double* vb) {
+  double y = s - c->min_length;
+  y = y < 0.0 ? 0.0 : (y > c->stroke ? c->stroke : y);
+  *va = c->dead_a + c->area_a * y;
+  *vb = c->dead_b + c->area_b * (c->stroke - y);
+}
+
+/* The valve's flows into the chambers (Q_A, Q_B) at opening x, m^3/s. */
+static inline void ml_valve_edges(const ml_chambers* c, double x, double pa, double pb,
+                                  double* qa, double* qb) {
+  double open = x > 0.0 ? x : 0.0, reverse = x < 0.0 ? -x : 0.0;
+  double l = c->laminar;
+  *qa = c->gain_a * (open * ml_orifice_root(c->supply - pa, l) -
+                     reverse * ml_orifice_root(pa - c->tank, l));
+  *qb = c->gain_b * (reverse * ml_orifice_root(c->supply - pb, l) -
+                     open * ml_orifice_root(pb - c->tank, l));
+}
+
+/* (dpA/dt, dpB/dt, dx/dt) at current u (clipped), length s and its rate sdot. */
+static inline void ml_chambers_rates_law(const ml_chambers* c, double pa, double pb, double x,
+                                         double u, double s, double sdot, double* rates) {
+  double va, vb, qa, qb;
+  ml_chamber_volumes(c, s, &va, &vb);
+  ml_valve_edges(c, x, pa, pb, &qa, &qb);
+  double leak = c->leakage * (pa - pb);
+  rates[0] = c->bulk_modulus / va * (qa - c->area_a * sdot - leak);
+  rates[1] = c->bulk_modulus / vb * (qb + c->area_b * sdot + leak);
+  rates[2] = (u * c->inv_current - x) * c->inv_tau;
+}
+
+/* F = pA A_A - pB A_B with the pressures within their bounds, N. */
+static inline double ml_chambers_force_law(const ml_chambers* c, double pa, double pb) {
+  return ml_chamber_bounded(c, pa) * c->area_a - ml_chamber_bounded(c, pb) * c->area_b;
+}
+
+#endif
