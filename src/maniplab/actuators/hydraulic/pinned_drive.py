@@ -100,7 +100,8 @@ class ChamberDrive(ForceDrive):
         return float(law.bulk_modulus * (qa / va - ratio * qb / vb)) * sign
 
     def speed_command(self, speed: Array) -> Array:
-        """i_v = i_max r ṡ / (the piston's no-load speed), at mid-range, clipped."""
-        out = [c.params.valve.current_limit * v / c.top_speed
+        """i_v = i_max r q̇ / (the piston's no-load speed), r at mid-range (its sign: a joint
+        whose cylinder shortens as it turns moves forward on a negative current), clipped."""
+        out = [c.params.valve.current_limit * v * c.mid_arm / c.piston_speed()
                for c, v in zip(self.cylinders, speed)]
         return self.clip(np.array(out))
