@@ -194,3 +194,23 @@ def test_the_boom_as_given_is_valid_and_shows_its_cylinder(capsys: pytest.Captur
     arm = np.abs(np.gradient(s, q))
     assert f"r {arm.min():.3g}..{arm.max():.3g} m" in out
     assert "⌀100/56 x 850 mm" in out
+
+
+def test_a_run_records_the_stroke_and_the_cylinder_force(tmp_path: Path) -> None:
+    """A run's ``stroke`` is s(q) - min_length and its ``cylinder_force`` times r(q) (both by
+    hand) is the joint torque ``tau_act``; the force is pA A_A - pB A_B."""
+    run = ml.simulate(ml.ManipulatorSpec.from_dict(BOOM), duration=0.5,
+                      inputs={"luff": 0.4}, initial={"q": [-0.4], "dP": "gravity"},
+                      progress=False)
+    p, c, y = np.array([0.25, 0.0, -0.9]), np.array([0.9, 0.0, -0.1]), np.array(AXES["y"])
+    q = run.q[:, 0]
+    s = np.array([_length_by_hand(x, p, c, y, False) for x in q])
+    h = 1e-6
+    r = np.array([(_length_by_hand(x + h, p, c, y, False) - _length_by_hand(x - h, p, c, y, False))
+                  / (2 * h) for x in q])
+    assert run["stroke"][:, 0] == pytest.approx(s - 0.79, abs=1e-12)
+    force = run["cylinder_force"][:, 0]
+    area_a, area_b = np.pi / 4 * 0.1**2, np.pi / 4 * (0.1**2 - 0.056**2)
+    assert force == pytest.approx(run["pA"][:, 0] * area_a - run["pB"][:, 0] * area_b, rel=1e-12)
+    assert run["tau_act"][:, 0] == pytest.approx(force * r, rel=1e-8)
+    assert np.ptp(q) > 0.05

@@ -14,6 +14,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import imageio.v3 as iio
+import mujoco
 import numpy as np
 import pytest
 
@@ -274,3 +275,32 @@ def test_cli_needs_grid_or_overlay_for_several_runs(tmp_path: Path,
         run.save(paths[-1])
     assert main(["render", *paths, "-o", str(tmp_path / "x.mp4")]) == 2
     assert "add --grid or --overlay" in capsys.readouterr().err
+
+
+def test_a_pinned_cylinder_is_drawn_between_its_pins() -> None:
+    """A pinned cylinder's tendon is in the scene as one capsule from pin to pin (where MuJoCo
+    puts the two sites at that pose), in the cylinder's colour, at every frame."""
+    from maniplab.actuators.hydraulic.pinned import COLOUR
+    from maniplab.viz.look import Look
+    from maniplab.viz.render import SingleRun
+
+    spec = ml.load_spec(Path(__file__).parent / "arms" / "patu_crane.yaml")
+    t = np.arange(51) / RATE
+    q = np.column_stack([0.3 * t, -0.5 + 0.4 * t, 0.4 + 1.0 * t])
+    nan = np.full(q.shape, np.nan)
+    run = Run(t, {"q": q, "qd": np.zeros_like(q), "dP": nan, "Q": nan,
+                  "mode": np.zeros(q.shape, dtype=np.int8)}, spec)
+    single = SingleRun(run, W, H, 20.0, Look("auto", False, False, False, False, None))
+    arm, view = single.view.arms[0], single.view
+    for k in range(len(single.times)):
+        view.frame(k)
+        scene = view.scene
+        drawn = [scene.geoms[i] for i in range(scene.ngeom)
+                 if scene.geoms[i].objtype == mujoco.mjtObj.mjOBJ_TENDON]
+        assert len(drawn) == 2
+        for geom, joint in zip(drawn, ("lift", "tilt")):
+            ends = [arm.data.site(f"{joint}/cylinder_{end}").xpos for end in ("base", "rod")]
+            assert geom.pos == pytest.approx(0.5 * (ends[0] + ends[1]), abs=1e-6)  # float32
+            assert 2 * geom.size[2] == pytest.approx(np.linalg.norm(ends[1] - ends[0]), rel=1e-6)
+            assert geom.rgba == pytest.approx(COLOUR, abs=1e-6)
+    view.close()

@@ -41,6 +41,8 @@ lag
 bounds                     the health verdict of a run (e.g. pressures beyond supply)
 check_state, state_limits  the plant's instability check after every step (limits: a cheap
                            comparison, check_state only for the message)
+outputs, output_values     signals derived from the states that a Run records too (a pinned
+                           cylinder's stroke and force)
 describe                   ``maniplab info``
 =========================  ====================================================================
 """
@@ -202,6 +204,8 @@ class ActuatorPlugin(abc.ABC):
             signal of the Run too (the commands of the joints driven this way).
         command_unit: unit of the command.
         spring_name: what :meth:`stiffness` is, in messages ("oil spring").
+        outputs: signals derived from the states (name -> unit) that a Run records besides
+            them (NaN at joints without them); :meth:`output_values` computes them.
         variants: other models under the same ``type``, chosen by a key of the section.
         variant_key: the key that chooses this model among its type's variants (``cylinder``
             makes a ``hydraulic`` actuator the pinned two-chamber cylinder).
@@ -219,6 +223,7 @@ class ActuatorPlugin(abc.ABC):
     command: ClassVar[str] = "u"
     command_unit: ClassVar[str] = ""
     spring_name: ClassVar[str] = "actuator spring"
+    outputs: ClassVar[dict[str, str]] = {}
 
     def __init__(self, params: Any, joint: Joint) -> None:
         self.params = params
@@ -447,6 +452,11 @@ class ActuatorPlugin(abc.ABC):
         act.gainprm = [0.0] * 10
         act.biastype = mujoco.mjtBias.mjBIAS_USER
         set_command_range(act, self.command_limit)
+
+    def output_values(self, x: np.ndarray, q: np.ndarray) -> dict[str, np.ndarray]:
+        """The :attr:`outputs` at N samples of the states x (N, k) and joint positions q (N,),
+        each (N,)."""
+        return {}
 
     def mount(self, act: mujoco.MjsActuator, mount: Mount) -> None:
         """What the actuator acts through in the MuJoCo model: the default is its joint (as

@@ -104,3 +104,13 @@ class Actuation:
             x = act[:, self._adr[j]:self._adr[j] + len(a.states)]
             tau[:, j] = a.forces(x, ctrl[:, j], q[:, j], qd[:, j])
         return tau
+
+    def outputs(self, q: np.ndarray, act: np.ndarray) -> dict[str, np.ndarray]:
+        """Each actuator's derived outputs at N samples (q (N, n), act (N, na)): name -> (N, n),
+        NaN at joints without it."""
+        out: dict[str, np.ndarray] = {}
+        for j, a in enumerate(self.models):
+            x = act[:, self._adr[j]:self._adr[j] + len(a.states)]
+            for name, values in a.output_values(x, q[:, j]).items():
+                out.setdefault(name, np.full(q.shape, np.nan))[:, j] = values
+        return out

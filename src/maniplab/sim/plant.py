@@ -291,6 +291,11 @@ class Plant:
         return self.actuator_forces_at(d.qpos[None, :], d.qvel[None, :], d.act[None, :],
                                        d.ctrl[None, : self.n])[0]
 
+    def actuator_outputs_at(self, q: np.ndarray, act: np.ndarray) -> dict[str, np.ndarray]:
+        """The actuators' derived outputs (:attr:`~maniplab.actuators.ActuatorPlugin.outputs`)
+        at N samples: q (N, n), act (N, na) -> name -> (N, n), NaN at joints without it."""
+        return self._actuation.outputs(q, act)
+
     def actuator_forces_at(self, q: np.ndarray, qd: np.ndarray, act: np.ndarray,
                            ctrl: np.ndarray) -> np.ndarray:
         """Each actuator's force at N samples: q, qd, ctrl (N, n), act (N, na) -> (N, n)."""

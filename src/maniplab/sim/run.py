@@ -24,7 +24,8 @@ UNITS: dict[str, str] = {
     "q": "rad | m", "qd": "rad/s | m/s", "qdd": "rad/s² | m/s²",
     "tau_act": "N·m | N", "tau_fric": "N·m | N", "dP": "Pa", "Q": "m³/s", "iv": "A",
     "mode": "FrictionMode", "ee_pos": "m", "ctrl": "A | N·m | N",
-    "tau_limit": "N·m | N", "z": "rad | m",
+    "tau_limit": "N·m | N", "z": "rad | m", "pA": "Pa", "pB": "Pa", "spool": "",
+    "stroke": "m", "cylinder_force": "N",
 }
 
 

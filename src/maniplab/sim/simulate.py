@@ -315,6 +315,7 @@ class _Loop:
         for name in dict.fromkeys((*STANDARD_COMMANDS, *(a.command for a in p.actuators))):
             mine = [a.command == name for a in p.actuators]
             out[name] = np.where(mine, ctrl, np.nan)
+        out.update(p.actuator_outputs_at(q, act))
         out["tau_act"] = p.actuator_forces_at(q, qd, act, ctrl)
         out["tau_fric"] = b["fric"] - p.viscous * qd  # applied + viscous at t_k
         out["tau_limit"] = b["limit"].copy()

@@ -60,6 +60,7 @@ class ArmView:
         self.data.qpos[:] = q
         mujoco.mj_kinematics(self.model, self.data)
         mujoco.mj_comPos(self.model, self.data)  # the tracking camera follows the subtree COM
+        mujoco.mj_tendon(self.model, self.data)  # cylinders are drawn along their tendons
         mujoco.mj_camlight(self.model, self.data)
 
     @property
@@ -80,11 +81,13 @@ class ArmView:
         for i in range(start, scene.ngeom):
             geom = scene.geoms[i]
             if geom.objtype == mujoco.mjtObj.mjOBJ_SITE:  # the end-effector marker starts the path;
-                geom.rgba[:] = tint or palette.PATH  # red is kept for joint limits
+                if geom.objid == self.end_effector:  # (a cylinder's pins keep their colour)
+                    geom.rgba[:] = tint or palette.PATH  # red is kept for joint limits
                 continue
-            if geom.objtype != mujoco.mjtObj.mjOBJ_GEOM:
+            if geom.objtype not in (mujoco.mjtObj.mjOBJ_GEOM, mujoco.mjtObj.mjOBJ_TENDON):
                 continue
-            rgba = self._rgba(geom.objid, modes, tint)
+            rgba = tint if geom.objtype == mujoco.mjtObj.mjOBJ_TENDON else \
+                self._rgba(geom.objid, modes, tint)
             if rgba is not None:
                 geom.rgba[:] = rgba
             if tint is not None:

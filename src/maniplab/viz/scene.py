@@ -61,7 +61,8 @@ class SceneView:
         self.tints = [None] + [palette.run_colour(k) for k in range(1, len(self.motions))]
         self.option = mujoco.MjvOption()
         self.perturb = mujoco.MjvPerturb()
-        maxgeom = sum(a.model.ngeom + a.model.nsite for a in self.arms) + _SPARE_GEOMS
+        maxgeom = sum(a.model.ngeom + a.model.nsite + a.model.nwrap
+                      for a in self.arms) + _SPARE_GEOMS
         self.scene = mujoco.MjvScene(self.arms[0].model,
                                      maxgeom=maxgeom + len(self.trails) * max_segments())
         self.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = look.shadows

@@ -73,6 +73,7 @@ class PinnedCylinder(ActuatorPlugin):
     command: ClassVar[str] = "iv"
     command_unit: ClassVar[str] = "A"
     spring_name: ClassVar[str] = "oil spring"
+    outputs: ClassVar[dict[str, str]] = {"stroke": "m", "cylinder_force": "N"}
     params: PinnedHydraulicActuator
 
     @classmethod
@@ -122,6 +123,13 @@ class PinnedCylinder(ActuatorPlugin):
     def force(self, x: np.ndarray, u: float, q: float, v: float) -> float:
         """(pA A_A - pB A_B) r(q), N·m or N."""
         return self.cylinder_force(x) * float(self.geometry.arm(q))
+
+    def output_values(self, x: np.ndarray, q: np.ndarray) -> dict[str, np.ndarray]:
+        """``stroke``: the piston's travel s(q) - min_length, m; ``cylinder_force``: pA A_A -
+        pB A_B along the pins, N (positive pushing them apart)."""
+        travel = self.geometry.length(q) - self.params.cylinder.min_length
+        force = np.array([self.cylinder_force(row) for row in x])
+        return {"stroke": np.asarray(travel, dtype=float), "cylinder_force": force}
 
     def holding_range(self, q: float) -> tuple[float, float]:
         """The joint forces held with the valve closed: one chamber at the relief's setting (or
