@@ -52,3 +52,12 @@ def test_make_video(tmp_path: Path) -> None:
     single = np.stack(list(iio.imiter(tmp_path / "erector.mp4")))
     grid = np.stack(list(iio.imiter(tmp_path / "payloads.mp4")))
     assert single.shape == (6, 96, 160, 3) and grid.shape == (6, 96, 160, 3)
+
+
+def test_cylinder_pins_draws_the_pins_and_refuses_a_joint_without_one(tmp_path: Path) -> None:
+    spec = str(Path(__file__).parent / "arms" / "patu_crane.yaml")
+    run("cylinder_pins.py", spec, "tilt", "-o", str(tmp_path / "pins.png"))
+    assert iio.imread(tmp_path / "pins.png").shape[1] > 800
+    result = subprocess.run([sys.executable, str(EXAMPLES / "cylinder_pins.py"), spec, "slew"],
+                            capture_output=True, text=True, timeout=120, check=False)
+    assert result.returncode == 2 and "no pinned cylinder" in result.stderr
