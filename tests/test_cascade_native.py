@@ -309,3 +309,31 @@ def test_a_model_without_compiled_kernels_is_refused_in_one_line() -> None:
     with pytest.raises(ml.control.errors.ControlError, match="C backend") as caught:
         CascadeController(spec, move, model=model)
     assert "\n" not in str(caught.value)
+
+
+def test_a_python_drive_reads_its_plugin_states_from_the_plants_state(monkeypatch) -> None:
+    """Called with a plant's state, the cascade hands a Python drive (the pinned cylinders')
+    the states it needs by name, as the plant holds them (a state the plant has is never read as
+    zeros)."""
+    from maniplab.actuators.hydraulic.pinned_drive import ChamberDrive
+
+    spec = ml.load_spec(Path(__file__).parent / "arms" / "patu_crane.yaml")
+    plant = ml.Plant(spec)
+    plant.set_state(q=[0.2, -0.4, 1.0])
+    plant.balance_pressures()
+    seen: list[dict[str, np.ndarray]] = []
+    command = ChamberDrive.command
+
+    def spy(self, force, q, qd, qd_ref, states):  # type: ignore[no-untyped-def]
+        seen.append({k: np.array(v) for k, v in states.items()})
+        return command(self, force, q, qd, qd_ref, states)
+
+    monkeypatch.setattr(ChamberDrive, "command", spy)
+    model = ml.AnalyticModel(spec)
+    controller = CascadeController(spec, Hold(Pose.from_matrix(model.fk(plant.state().q)), 1.0),
+                                   model=model)
+    controller(0.0, plant.state())
+    state = plant.state()
+    assert seen and seen[0]["pA"] == pytest.approx(state["pA"][1:], rel=1e-12)
+    assert seen[0]["pB"] == pytest.approx(state["pB"][1:], rel=1e-12)
+    assert np.all(seen[0]["pA"] > 1e6)

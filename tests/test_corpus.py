@@ -30,7 +30,9 @@ MOVES = {
     "electric2": (str(ARMS / "electric2.yaml"), [-0.5, 1.0], {"q": [-0.8, 1.4]}, 2.0),
     "gantry": (str(ARMS / "gantry.yaml"), [2.0, 1.0, -1.0], [5.0, 2.5, -2.0], 8.0),
     "patu-crane": (str(ARMS / "patu_crane.yaml"), [0.0, -0.3, 1.2], {"q": [0.4, -0.5, 0.9]},
-                   8.0),
+                   5.0),
+    "excavator-pinned": (str(ARMS / "excavator_pinned.yaml"), [0.0, -0.3, 1.2, 0.5],
+                         {"q": [0.5, -0.5, 1.5, 0.8]}, 6.0),
     "erector7": (str(ARMS / "erector7.yaml"), [-0.18, 1.27, 0.0, 0.0, 0.0, 0.0, 0.0],
                  {"q": [-0.6, 1.0, 0.3, 0.1, 0.05, -0.05, 0.1]}, 4.0),
 }

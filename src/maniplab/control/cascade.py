@@ -76,8 +76,15 @@ _BUFFERS = {"x_d": "x_d", "x": "x", "e_x": "e", "a_x": "a_x", "qdd_d": "qdd", "t
 
 
 def _read(state: Any, name: str) -> np.ndarray | None:
-    """A state field by attribute or key (q, qd, dP), or None when the state has none."""
-    value = state.get(name) if isinstance(state, Mapping) else getattr(state, name, None)
+    """A state field by key or attribute (q, qd, dP, a plugin's state such as pA), or None when
+    the state has none."""
+    if isinstance(state, Mapping):
+        value = state.get(name)
+    else:
+        value = getattr(state, name, None)
+        states = getattr(state, "states", None)
+        if value is None and isinstance(states, Mapping):  # a PlantState's plugin states
+            value = states.get(name)
     return None if value is None else np.asarray(value, dtype=float)
 
 

@@ -139,10 +139,12 @@ def fit(model: AnalyticModel, path: JointPath, duration: float) -> tuple[float, 
         return duration, worst
     slow = demand(model, path, LONGEST * duration)
     if slow is not None and slow.share > MARGIN:
+        need = (f"{slow.share:.0%} of its actuator's command range" if math.isfinite(slow.share)
+                else "more than its actuator can exert")
         raise ControlError(
-            f"joint {slow.joint} cannot hold the arm on this path: it needs "
-            f"{slow.share:.0%} of its actuator's command range at rest ({slow.force:.4g} N·m or "
-            f"N); a stronger actuator (area, supply pressure, limit) or another path")
+            f"joint {slow.joint} cannot hold the arm on this path: it needs {need} at rest "
+            f"({slow.force:.4g} N·m or N); a stronger actuator (area, supply pressure, limit, a "
+            "cylinder's bore or pins) or another path")
     low, high = duration, LONGEST * duration
     while high - low > 0.01 * high:
         mid = math.sqrt(low * high)
