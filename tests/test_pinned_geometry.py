@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 import yaml
 from commandline import run_cli
+from scipy import optimize
 from scipy.spatial.transform import Rotation
 
 import maniplab as ml
@@ -189,11 +190,16 @@ def test_the_boom_as_given_is_valid_and_shows_its_cylinder(capsys: pytest.Captur
     code, out, err = run_cli(capsys, "info", str(spec))
     assert code == 0, err
     p, c = np.array([0.25, 0.0, -0.9]), np.array([0.9, 0.0, -0.1])
+    y = np.array(AXES["y"])
     q = np.linspace(-1.0, 0.3, 2001)
-    s = [_length_by_hand(x, p, c, np.array(AXES["y"]), False) for x in q]
+    s = [_length_by_hand(x, p, c, y, False) for x in q]
     arm = np.abs(np.gradient(s, q))
     assert f"r {arm.min():.3g}..{arm.max():.3g} m" in out
     assert "⌀100/56 x 850 mm" in out
+    ends = [optimize.brentq(lambda x, length=length: _length_by_hand(x, p, c, y, False) - length,
+                            -1.6, 0.9) for length in (0.79 + 0.85, 0.79)]
+    assert f"its stroke allows [{ends[0]:.4g}, {ends[1]:.4g}] rad" in out
+    assert "A_A 78.54 cm², A_B 53.91 cm²" in out
 
 
 def test_a_run_records_the_stroke_and_the_cylinder_force(tmp_path: Path) -> None:

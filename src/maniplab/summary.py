@@ -16,6 +16,9 @@ def spec_table(spec: ManipulatorSpec) -> str:
     lines.insert(1, "  ".join("-" * w for w in widths))
     ee = spec.end_effector
     total = sum(j.body.mass for j in spec.joints if j.body) + ee.mass
+    details = [line for joint in spec.joints for line in model_of(joint).details()]
+    if details:
+        lines += ["", *details]
     lines += [
         "",
         f"end-effector: {ee.mass:g} kg at offset {_vec(ee.offset)} m",

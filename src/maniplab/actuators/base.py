@@ -43,7 +43,7 @@ check_state, state_limits  the plant's instability check after every step (limit
                            comparison, check_state only for the message)
 outputs, output_values     signals derived from the states that a Run records too (a pinned
                            cylinder's stroke and force)
-describe                   ``maniplab info``
+describe, details          ``maniplab info`` (a row of the joints' table, lines below it)
 =========================  ====================================================================
 """
 
@@ -465,6 +465,10 @@ class ActuatorPlugin(abc.ABC):
     def describe(self) -> str:
         """One line for tables (``maniplab info``): the type and its main parameters."""
         return self.type_name()
+
+    def details(self) -> list[str]:
+        """Lines ``maniplab info`` prints below the joints' table (none by default)."""
+        return []
 
     # --- naming ---------------------------------------------------------------------------------
     def type_name(self) -> str:

@@ -318,6 +318,21 @@ class PinnedCylinder(ActuatorPlugin):
                 f"{p.valve.nominal_flow * 6e4:.3g} L/min valve, "
                 f"Ps {p.supply_pressure / 1e6:g} MPa{relief}")
 
+    def details(self) -> list[str]:
+        """The cylinder's length and moment arm over the limits, the range its stroke allows,
+        its areas and the valve's edge coefficients."""
+        c, law, j = self.params.cylinder, self.law, self.joint
+        lo, hi = j.limits or (0.0, 0.0)
+        q = np.linspace(lo, hi, 65)
+        s, r = self.geometry.length(q), self.geometry.arm(q)
+        allowed = self.geometry.span(c.min_length, c.max_length, 0.5 * (lo + hi))
+        unit = self.geometry.unit
+        return [f"{j.name}: cylinder s {s.min():.4g}..{s.max():.4g} m over the limits (its stroke "
+                f"allows [{allowed[0]:.4g}, {allowed[1]:.4g}] {unit}), r(q) {r.min():.4g}.."
+                f"{r.max():.4g} m{'' if j.prismatic else '/rad'}",
+                f"{' ' * len(j.name)}  A_A {c.cap_area * 1e4:.4g} cm², A_B {c.rod_area * 1e4:.4g} "
+                f"cm², valve edges K_A {law.gain_a:.4g}, K_B {law.gain_b:.4g} m³/(s·√Pa)"]
+
     @classmethod
     def drive(cls, actuators: Sequence[ActuatorPlugin], joints: Sequence[int], *, dt: float,
               settings: ControlSpec) -> ForceDrive:
