@@ -317,7 +317,7 @@ def test_a_python_drive_reads_its_plugin_states_from_the_plants_state(monkeypatc
     zeros)."""
     from maniplab.actuators.hydraulic.pinned_drive import ChamberDrive
 
-    spec = ml.load_spec(Path(__file__).parent / "arms" / "patu_crane.yaml")
+    spec = ml.builtin_spec("patu655")
     plant = ml.Plant(spec)
     plant.set_state(q=[0.2, -0.4, 1.0])
     plant.balance_pressures()

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import mujoco
 import numpy as np
 import pytest
@@ -165,7 +163,7 @@ def test_a_pinned_cylinder_arm_linearises_as_mujoco_computes_it() -> None:
     """On the PATU-like crane with two pinned cylinders (and a lumped slew), the linear model's A
     and B equal central differences of MuJoCo's own evaluation of the plant (qacc through the
     cylinders' tendons, act_dot from the engine plugins) at a held pose, to 1e-5 per column."""
-    spec = ml.load_spec(Path(__file__).parent / "arms" / "patu_crane.yaml")
+    spec = ml.builtin_spec("patu655")
     spec = spec.with_overrides({f"joints.{j.name}.friction": {"model": "none"}
                                 for j in spec.joints})
     m = ml.build_model(spec)

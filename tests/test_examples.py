@@ -55,7 +55,7 @@ def test_make_video(tmp_path: Path) -> None:
 
 
 def test_cylinder_pins_draws_the_pins_and_refuses_a_joint_without_one(tmp_path: Path) -> None:
-    spec = str(Path(__file__).parent / "arms" / "patu_crane.yaml")
+    spec = "patu655"
     run("cylinder_pins.py", spec, "tilt", "-o", str(tmp_path / "pins.png"))
     assert iio.imread(tmp_path / "pins.png").shape[1] > 800
     result = subprocess.run([sys.executable, str(EXAMPLES / "cylinder_pins.py"), spec, "slew"],

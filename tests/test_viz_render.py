@@ -284,7 +284,7 @@ def test_a_pinned_cylinder_is_drawn_between_its_pins() -> None:
     from maniplab.viz.look import Look
     from maniplab.viz.render import SingleRun
 
-    spec = ml.load_spec(Path(__file__).parent / "arms" / "patu_crane.yaml")
+    spec = ml.builtin_spec("patu655")
     t = np.arange(51) / RATE
     q = np.column_stack([0.3 * t, -0.5 + 0.4 * t, 0.4 + 1.0 * t])
     nan = np.full(q.shape, np.nan)
