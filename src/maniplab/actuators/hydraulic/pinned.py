@@ -19,7 +19,6 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import mujoco
 import numpy as np
-from scipy import optimize
 
 from maniplab.actuators.base import (
     ActuatorPlugin,
@@ -31,6 +30,7 @@ from maniplab.actuators.base import (
     set_command_range,
 )
 from maniplab.actuators.hydraulic import chambers
+from maniplab.actuators.hydraulic.chamber_steady import SteadyFlows
 from maniplab.actuators.hydraulic.cylinder import PRESSURE_LIMIT
 from maniplab.actuators.hydraulic.geometry import PinGeometry
 from maniplab.actuators.hydraulic.params import PinnedHydraulicActuator
@@ -46,11 +46,6 @@ MUJOCO_PLUGIN = "maniplab.cylinder"
 TENDON_SUFFIX = "/cylinder"
 """The tendon of joint j's cylinder is ``<j>/cylinder``; its pins are sites ``<j>/cylinder_base``
 (on the body before the joint) and ``<j>/cylinder_rod`` (on the body it moves)."""
-
-STEADY_MISMATCH = 1e-3
-"""A steady state may leave this share of the valve's nominal flow unbalanced on the rod side: a
-critically lapped valve with leakage across the piston has no exact one in a narrow band of
-creeping speeds (where the leakage lies between the two sides' piston flows)."""
 
 COLOUR = (0.85, 0.65, 0.13, 1.0)
 """The cylinders' colour in renders: hydraulic yellow."""
@@ -150,51 +145,17 @@ class PinnedCylinder(ActuatorPlugin):
         return np.array([tank, (tank * c.cap_area - f) / c.rod_area, 0.0])
 
     def steady(self, force: float, q: float, v: float) -> Steady:
-        """The pressures and spool that hold ``force`` at joint speed v, and the current that
-        opens the spool so far (infinite where no opening within ±1 and no pressures within
-        [Pt, Ps] do).
-
-        With ds/dt = r v and F = force / r, pB follows from pA (pA A_A - pB A_B = F), the A
-        side's balance Q_A = A_A ds/dt + Q_L gives the opening x, and pA is the root of the B
-        side's balance Q_B = -A_B ds/dt - Q_L (bracketed on a grid of the pressures within
-        [Pt, Ps]).
-        """
-        p, c = self.params, self.params.cylinder
-        s, r = float(self.geometry.length(q)), float(self.geometry.arm(q))
+        """The pressures and spool that hold ``force`` at joint speed v (the valve's flows
+        balancing the piston's and the leakage, or an overrunning load's chamber at tank: see
+        :mod:`.chamber_steady`), and the current that opens the spool so far (infinite where no
+        opening within ±1 does)."""
+        p = self.params
         if v == 0.0 and p.leakage == 0.0:
             return Steady(self.holding(force, q), 0.0)
-        f, sdot = force / r, r * v
-        law = self.law
-
-        def state(pa: float) -> np.ndarray:
-            pb = (pa * c.cap_area - f) / c.rod_area
-            need = c.cap_area * sdot + p.leakage * (pa - pb)
-            way = math.copysign(1.0, need)  # Q_A at opening x of that sign is |x| Q_A(way)
-            full = chambers.flows(law, np.array([pa, pb, way]), s)[0]
-            spool = way * need / full if full != 0.0 else math.copysign(math.inf, need)
-            return np.array([pa, pb, spool])
-
-        def balance(pa: float) -> float:
-            x = state(pa)
-            if not math.isfinite(x[2]):
-                return math.copysign(math.inf, -x[2])
-            return float(chambers.rates(law, x, 0.0, s, sdot)[1])
-
-        low = max(p.tank_pressure, (f + p.tank_pressure * c.rod_area) / c.cap_area)
-        high = min(p.supply_pressure, (f + p.supply_pressure * c.rod_area) / c.cap_area)
-        grid = np.linspace(low, high, 65) if low < high else np.array([low])
-        values = np.array([balance(float(pa)) for pa in grid])
-        change = np.flatnonzero(values[:-1] * values[1:] <= 0.0)
-        if not change.size:  # the closest balance, if within STEADY_MISMATCH
-            best = int(np.argmin(np.abs(values)))
-            x = state(float(grid[best]))
-            _, _, _, vb = chambers.flows(law, x, s)
-            close = abs(values[best]) * vb / p.bulk_modulus <= STEADY_MISMATCH * p.valve.nominal_flow
-            if not (close and abs(x[2]) <= 1.0):
-                return Steady(x, math.copysign(math.inf, x[2] or sdot or 1.0))
-            return Steady(x, x[2] * p.valve.current_limit)
-        k = int(change[0])
-        x = state(optimize.brentq(balance, grid[k], grid[k + 1], xtol=1e-9 * high, rtol=1e-14))
+        x = SteadyFlows(self, force, q, v).solve()
+        if x is None:
+            x = self.holding(force, q)
+            return Steady(x, math.copysign(math.inf, float(self.geometry.arm(q)) * v or 1.0))
         u = x[2] * p.valve.current_limit
         return Steady(x, u if abs(x[2]) <= 1.0 else math.copysign(math.inf, x[2]))
 
