@@ -385,3 +385,53 @@ def test_steady_states_hold_the_force_with_steady_chambers(arm: str) -> None:
                 assert unbalanced <= 1e-3 * p.valve.nominal_flow or (at_tank and rates[k] < 0.0)
             assert abs(rates[2]) <= 1e-9
     assert found >= 60
+
+
+def _with_supply(max_flow: float | None) -> ml.ManipulatorSpec:
+    data = ml.builtin_spec("patu655").to_dict()
+    if max_flow is not None:
+        data["supply"] = {"pressure": 8.0e6, "max_flow": max_flow}
+    return ml.ManipulatorSpec.from_dict(data)
+
+
+def _two_cylinders(spec: ml.ManipulatorSpec, tilt: float) -> ml.Run:
+    return ml.simulate(spec, duration=1.5, inputs={"lift": 1.0, "tilt": tilt},
+                       initial={"q": [0.0, -0.4, 1.0], "dP": "gravity"}, progress=False)
+
+
+@pytest.mark.parametrize("tilt", [1.0, -1.0])
+def test_a_shared_pump_shares_its_flow_between_cylinders_moving_together(tilt: float) -> None:
+    """PATU 655's lift and tilt valves both wide open, pushing their loads, on one pump of
+    24 L/min (less than the two valves pass): the oil entering the two filling chambers, A_A or
+    A_B times the piston speed from the recorded strokes, adds up to the pump's flow (to 1 %,
+    the chambers' compression aside), and both cylinders move slower than with a supply each.
+    A pump larger than the valves' flows changes nothing (to 1e-12)."""
+    pump = 4.0e-4
+    alone, shared = _two_cylinders(_with_supply(None), tilt), _two_cylinders(_with_supply(pump), tilt)
+    t = shared.t
+    k0, k1 = np.searchsorted(t, [0.5, 1.4])
+    speed = (shared["stroke"][k1] - shared["stroke"][k0]) / (t[k1] - t[k0])
+    speed_alone = (alone["stroke"][k1] - alone["stroke"][k0]) / (t[k1] - t[k0])
+    cap, rod = np.pi / 4 * 0.1**2, np.pi / 4 * (0.1**2 - 0.056**2)
+    inflow = [cap * v if v > 0 else -rod * v for v in speed[1:]]
+    assert sum(inflow) == pytest.approx(pump, rel=1e-2)
+    assert np.all(np.abs(speed[1:]) < 0.9 * np.abs(speed_alone[1:]))
+    roomy = _two_cylinders(_with_supply(1.0), tilt)
+    assert roomy.q == pytest.approx(alone.q, abs=1e-12)
+    assert roomy["pA"] == pytest.approx(alone["pA"], rel=1e-12, nan_ok=True)
+
+
+@pytest.mark.parametrize(("change", "words"), [
+    ({"pressure": 9.0e6}, "joint lift's actuator.supply_pressure 8e+06 Pa differs"),
+    ({"max_flow": -1.0}, "max_flow"),
+])
+def test_a_shared_supply_that_does_not_fit_is_one_line(change: dict, words: str) -> None:
+    data = ml.builtin_spec("patu655").to_dict()
+    data["supply"] = {"pressure": 8.0e6, "max_flow": 4e-4, **change}
+    with pytest.raises(ml.SpecError) as info:
+        ml.ManipulatorSpec.from_dict(data)
+    assert words in str(info.value) and "supply" in str(info.value)
+    lumped = ml.builtin_spec("crane3").to_dict()
+    lumped["supply"] = {"pressure": 8.0e6, "max_flow": 4e-4}
+    with pytest.raises(ml.SpecError, match="no joint has a pinned cylinder"):
+        ml.ManipulatorSpec.from_dict(lumped)

@@ -21,13 +21,20 @@
 
    Q_A = K_A (x+ g(Ps - pA) - x- g(pA - Pt)),  Q_B = K_B (x- g(Ps - pB) - x+ g(pB - Pt)).
    g(dp) = dp / (dp^2 + p_l^2)^(1/4) is the orifice's square root sign(dp) sqrt(|dp|), made
-   laminar (linear) below the transition pressure p_l so that its slope stays finite.
+   laminar (linear) below the transition pressure p_l so that its slope stays finite. The P
+   edges have the load-check valve of a mobile valve section: no flow back into the supply line
+   (their g is 0 where the chamber's pressure is above Ps).
 
    Each chamber has an ideal relief valve to tank at p_r (optional) and an ideal anti-cavitation
    check valve from tank: its pressure is held within [Pt, p_r]. The plugin takes them as bounds
    after each step; within a step the force sees the pressures within them.
 
-   The cylinder's force along its pins, positive pushing them apart: F = pA A_A - pB A_B (N). */
+   The cylinder's force along its pins, positive pushing them apart: F = pA A_A - pB A_B (N).
+
+   A shared supply (a pump with a flow limit Q_max at its pressure setting) feeds several
+   cylinders: when their valves together would draw more than Q_max at the setting, the supply
+   pressure falls to the ps at which they draw Q_max (sum of ml_supply_draw = Q_max), and every
+   cylinder sees that ps (cylinder.c). */
 #ifndef MANIPLAB_CHAMBERS_H_
 #define MANIPLAB_CHAMBERS_H_
 
@@ -52,6 +59,12 @@ static inline double ml_orifice_root(double dp, double laminar) {
   return dp / sqrt(sqrt(dp * dp + laminar * laminar));
 }
 
+/* A supply edge's root: the load-check valve in the P port lets no oil back into the supply
+   line, so g(dp) for dp > 0 and 0 otherwise. */
+static inline double ml_supply_root(double dp, double laminar) {
+  return dp > 0.0 ? ml_orifice_root(dp, laminar) : 0.0;
+}
+
 /* A chamber pressure within the valves' bounds [Pt, p_r] (p_r only with a relief valve). */
 static inline double ml_chamber_bounded(const ml_chambers* c, double p) {
   if (p < c->tank) return c->tank;
@@ -72,10 +85,18 @@ static inline void ml_valve_edges(const ml_chambers* c, double x, double pa, dou
                                   double* qa, double* qb) {
   double open = x > 0.0 ? x : 0.0, reverse = x < 0.0 ? -x : 0.0;
   double l = c->laminar;
-  *qa = c->gain_a * (open * ml_orifice_root(c->supply - pa, l) -
+  *qa = c->gain_a * (open * ml_supply_root(c->supply - pa, l) -
                      reverse * ml_orifice_root(pa - c->tank, l));
-  *qb = c->gain_b * (reverse * ml_orifice_root(c->supply - pb, l) -
+  *qb = c->gain_b * (reverse * ml_supply_root(c->supply - pb, l) -
                      open * ml_orifice_root(pb - c->tank, l));
+}
+
+/* The flow the valve draws from the supply line at pressure ps: through P->A (x > 0) or P->B
+   (x < 0), m^3/s. */
+static inline double ml_supply_draw(const ml_chambers* c, double x, double pa, double pb,
+                                    double ps) {
+  if (x >= 0.0) return c->gain_a * x * ml_supply_root(ps - pa, c->laminar);
+  return -c->gain_b * x * ml_supply_root(ps - pb, c->laminar);
 }
 
 /* (dpA/dt, dpB/dt, dx/dt) at current u (clipped), length s and its rate sdot. */

@@ -5,6 +5,10 @@
    ds/dq is the tendon's). Activations (actdim 3): pA, pB (Pa) and the spool's opening x.
    Control: the valve current (A), clipped to the ctrlrange.
 
+   With a config pump_flow (the spec's shared `supply:`), the cylinders that have it share one
+   pump: its pressure falls below the setting when their valves together would draw more than
+   pump_flow (chambers.h), so that cylinders moving together slow down.
+
    MuJoCo's integrator advances the three states with the arm (actuator_act_dot). The relief and
    anti-cavitation valves are ideal: after each step (`advance`) each pressure is brought back
    within [Pt, p_r], and within a step the force sees it there (`compute`). */
@@ -19,12 +23,15 @@
 typedef struct {
   int actuator;
   ml_chambers law;
+  double pump_flow;     /* Q_max of the shared supply, m^3/s; 0: a supply of its own */
 } Cylinder;
+
+static int g_slot = -1;  /* this plugin's registered slot */
 
 static const char* kAttributes[] = {
     "area_a", "area_b", "dead_a", "dead_b", "min_length", "stroke", "bulk_modulus", "leakage",
     "gain_a", "gain_b", "laminar", "supply_pressure", "tank_pressure", "relief_pressure",
-    "valve_tau", "current_limit"};
+    "valve_tau", "current_limit", "pump_flow"};
 
 static int required(const mjModel* m, int instance, const char* key, double* value, int positive) {
   return ml_config_required(m, instance, PLUGIN, key, value, positive);
@@ -80,16 +87,48 @@ static int init(const mjModel* m, mjData* d, int instance) {
     return -1;
   }
   if (read_law(m, instance, &c.law)) return -1;
+  int shared = ml_config_number(m, instance, "pump_flow", &c.pump_flow);
+  if (shared < 0) return -1;
+  if (shared == 0 && !(c.pump_flow > 0.0)) {
+    mju_warning(PLUGIN ": pump_flow %g must be positive", c.pump_flow);
+    return -1;
+  }
   return ml_keep(d, instance, &c, sizeof(c));
 }
 
 static int nstate(const mjModel* m, int instance) { return 0; }
 
+/* The shared supply's total draw at pressure ps: every cylinder of this plugin on the pump. */
+static double pump_draw(const mjModel* m, const mjData* d, double ps) {
+  double total = 0.0;
+  for (int i = 0; i < m->nplugin; i++) {
+    const Cylinder* c = (const Cylinder*)d->plugin_data[i];
+    if (m->plugin[i] != g_slot || c == NULL || c->pump_flow <= 0.0) continue;
+    const double* x = d->act + m->actuator_actadr[c->actuator];
+    total += ml_supply_draw(&c->law, x[2], x[0], x[1], ps);
+  }
+  return total;
+}
+
+/* The shared supply's pressure: its setting, or lower where the valves would draw more than
+   Q_max there (the draw rises with ps: bisection down to the tank pressure). */
+static double pump_pressure(const mjModel* m, const mjData* d, const Cylinder* c) {
+  double high = c->law.supply, low = c->law.tank;
+  if (pump_draw(m, d, high) <= c->pump_flow) return high;
+  for (int k = 0; k < 100 && high - low > 1e-12 * c->law.supply; k++) {
+    double mid = 0.5 * (low + high);
+    if (pump_draw(m, d, mid) > c->pump_flow) high = mid; else low = mid;
+  }
+  return 0.5 * (low + high);
+}
+
 static void act_dot(const mjModel* m, mjData* d, int instance) {
   const Cylinder* c = (const Cylinder*)d->plugin_data[instance];
   int adr = m->actuator_actadr[c->actuator];
   const double* x = d->act + adr;
-  ml_chambers_rates_law(&c->law, x[0], x[1], x[2], ml_control(m, d, c->actuator),
+  ml_chambers law = c->law;
+  if (c->pump_flow > 0.0) law.supply = pump_pressure(m, d, c);
+  ml_chambers_rates_law(&law, x[0], x[1], x[2], ml_control(m, d, c->actuator),
                         d->actuator_length[c->actuator], d->actuator_velocity[c->actuator],
                         d->act_dot + adr);
 }
@@ -120,5 +159,5 @@ void ml_register_cylinder(void) {
   plugin.compute = compute;
   plugin.actuator_act_dot = act_dot;
   plugin.advance = advance;
-  mjp_registerPlugin(&plugin);
+  g_slot = mjp_registerPlugin(&plugin);
 }

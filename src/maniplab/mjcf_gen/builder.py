@@ -16,7 +16,8 @@
   two activation states (ΔP, Q) and every parameter, which MuJoCo integrates itself, in the plant
   and in any MuJoCo tool (:mod:`maniplab_native`); for a pinned cylinder an instance of
   ``maniplab.cylinder`` (states pA, pB, spool) acting on a spatial tendon between sites at its
-  pins, ``<joint>/cylinder``, which MuJoCo draws;
+  pins, ``<joint>/cylinder``, which MuJoCo draws (with the spec's shared ``supply:``, each
+  such instance gets the pump's flow limit ``pump_flow``);
 - the joints' friction as plain MuJoCo can model it: the viscous part as the joint's
   ``damping``, hybrid stick/slip friction as MuJoCo's dry friction ``frictionloss`` at the
   Coulomb level (MuJoCo has no stiction above it), and the limits as MuJoCo's soft joint limits;
@@ -49,6 +50,7 @@ import mujoco
 import numpy as np
 
 from maniplab.actuators.base import Mount
+from maniplab.actuators.hydraulic.pinned import MUJOCO_PLUGIN as CYLINDER_PLUGIN
 from maniplab.actuators.plugin_mjcf import EnginePlugin, activate_plugins, set_plugin
 from maniplab.builtin import resolve_spec
 from maniplab.friction import FrictionModel
@@ -117,6 +119,8 @@ def _arm(spec: ManipulatorSpec) -> mujoco.MjSpec:
     visuals.decorate_end_effector(tip, spec.end_effector, scene)
     for joint, mount in zip(spec.joints, mounts):
         _add_actuator(s, joint, mount)
+    if spec.supply is not None:
+        _share_supply(s, spec.supply.max_flow)
     for joint in spec.joints:
         if joint.friction.model is FrictionModel.lugre:
             _add_bristles(s, joint)
@@ -233,6 +237,15 @@ def _add_actuator(s: mujoco.MjSpec, joint: Joint, mount: Mount) -> None:
     plugin = model.mujoco_plugin()
     if plugin is not None:
         set_plugin(s, act, plugin)
+
+
+def _share_supply(s: mujoco.MjSpec, max_flow: float) -> None:
+    """Every pinned cylinder draws from one pump of flow ``max_flow`` (m³/s): its plugin instance
+    gets ``pump_flow`` (``maniplab_native/cylinder.c`` lowers their shared supply pressure when
+    their valves would draw more)."""
+    for instance in s.plugins:
+        if instance.plugin_name == CYLINDER_PLUGIN:
+            instance.config = {**instance.config, "pump_flow": repr(float(max_flow))}
 
 
 def _add_bristles(s: mujoco.MjSpec, joint: Joint) -> None:

@@ -21,6 +21,7 @@ from maniplab.spec.arm import (
     Joint,
     JointType,
     ManipulatorSpec,
+    Supply,
     inertia_matrix,
 )
 from maniplab.spec.control import CartesianGains, ControlSpec, JointPIDGains, PressureGains
@@ -44,6 +45,7 @@ __all__ = [
     "Positive",
     "PressureGains",
     "Real",
+    "Supply",
     "TorqueActuator",
     "Vec3",
     "inertia_matrix",

@@ -56,6 +56,7 @@ from pydantic import (
     Strict,
     TypeAdapter,
     ValidationError,
+    ValidationInfo,
     field_validator,
 )
 
@@ -78,7 +79,7 @@ from maniplab.schema import (
 from maniplab.schema.fields import LARGEST
 from maniplab.schema.translate import INTERNAL, line_of, unknown_key_problem
 from maniplab.spec import overrides as _overrides
-from maniplab.spec.actuator import DEFER_PLUGINS, Actuator, actuator_dict
+from maniplab.spec.actuator import DEFER_PLUGINS, Actuator, actuator_dict, params_of
 from maniplab.spec.control import ControlSpec
 from maniplab.spec.yaml_io import Loc, dump_yaml
 
@@ -297,6 +298,39 @@ class EndEffector:
         return np.full(3, max((self.mass / 2400.0) ** (1.0 / 3.0), 0.05))
 
 
+@validated
+class Supply:
+    """A pump shared by the pinned cylinders, with a flow limit.
+
+    Attributes:
+        pressure: its setting, Pa (each pinned cylinder's ``supply_pressure`` must be it).
+        max_flow: the most it delivers, m³/s; cylinders whose valves would draw more together
+            get a lower supply pressure, and slow down.
+    """
+
+    EXAMPLE: ClassVar[str] = "pressure: 8.0e6, max_flow: 1.0e-3"
+
+    pressure: Positive
+    max_flow: Positive
+
+
+def _check_supply(supply: Supply | None, info: ValidationInfo) -> Supply | None:
+    """Every pinned cylinder draws from the shared supply at its pressure; at least one does."""
+    joints = info.data.get("joints")
+    if supply is None or joints is None:
+        return supply
+    pinned = [j for j in joints if hasattr(params_of(j.actuator), "cylinder")]
+    if not pinned:
+        raise ValueError("no joint has a pinned cylinder (an actuator with a 'cylinder:' "
+                         "section) to draw from this supply")
+    for joint in pinned:
+        own = params_of(joint.actuator).supply_pressure
+        if own != supply.pressure:
+            raise ValueError(f"joint {joint.name}'s actuator.supply_pressure {own:g} Pa differs "
+                             f"from the shared supply's pressure {supply.pressure:g} Pa")
+    return supply
+
+
 @validated(kw_only=True)
 class ManipulatorSpec:
     """A serial manipulator, base to end-effector, one joint per degree of freedom.
@@ -307,6 +341,8 @@ class ManipulatorSpec:
         joints: the joints in order from the base; MuJoCo's qpos order.
         end_effector: the payload.
         control: the cascade controller's settings, or None for the defaults.
+        supply: a pump shared by the pinned cylinders, with a flow limit, or None (each
+            cylinder has a supply of its own).
         source: the file the spec was read from (for messages; not part of the spec's value).
     """
 
@@ -315,6 +351,7 @@ class ManipulatorSpec:
     joints: Annotated[tuple[Joint, ...], Field(min_length=1), BeforeValidator(sequence)]
     end_effector: EndEffector = EndEffector()
     control: ControlSpec | None = None
+    supply: Annotated[Supply | None, AfterValidator(_check_supply)] = None
     source: str | None = dataclasses.field(default=None, compare=False, repr=False,
                                            metadata={INTERNAL: True})
 
@@ -359,8 +396,9 @@ class ManipulatorSpec:
         """Plain dict (lists, floats, strings) with every default written out; from_dict inverts it."""
         data: dict[str, Any] = plain(dataclasses.asdict(self))
         del data["source"]
-        if self.control is None:
-            del data["control"]
+        for optional in ("control", "supply"):
+            if getattr(self, optional) is None:
+                del data[optional]
         for joint, joint_data in zip(self.joints, data["joints"]):
             joint_data["actuator"] = actuator_dict(joint.actuator)
         return data
@@ -406,7 +444,7 @@ class ManipulatorSpec:
         )
 
 
-_TOP_KEYS = ("name", "gravity", "joints", "end_effector", "control")
+_TOP_KEYS = ("name", "gravity", "joints", "end_effector", "control", "supply")
 
 
 def _from_dict(data: Any, source: str | None, lines: Mapping[Loc, int],
