@@ -181,3 +181,51 @@ def test_symbolic_constrained_terms_match_analytic_model() -> None:
     qdd, hold_am = am.constrained_dynamics(q, qd, tau, ["luff"])
     np.testing.assert_allclose(qdd[terms["free"]], qdd_f, rtol=1e-10)
     np.testing.assert_allclose(hold_am[1], hold[0], rtol=1e-10)
+
+
+def _tendon_terms(spec: ml.ManipulatorSpec, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each cylinder's length and moment arm as MuJoCo computes them (NaN without one)."""
+    model = ml.build_model(spec)
+    data = mujoco.MjData(model)
+    data.qpos[:] = q
+    mujoco.mj_forward(model, data)
+    moment = np.zeros((model.nu, model.nv))
+    mujoco.mju_sparse2dense(moment, data.actuator_moment, data.moment_rownnz, data.moment_rowadr,
+                            data.moment_colind)
+    length, arm = np.full(spec.n, np.nan), np.full(spec.n, np.nan)
+    for j in range(spec.n):
+        if model.actuator_trntype[j] == mujoco.mjtTrn.mjTRN_TENDON:
+            length[j], arm[j] = data.actuator_length[j], moment[j, j]
+    return length, arm
+
+
+@pytest.mark.skipif(CC is None, reason="no C compiler")
+def test_exported_cylinder_terms_match_mujocos_tendons(tmp_path: Path) -> None:
+    """The Python and C exports' cylinder_length and moment_arm equal MuJoCo's tendon length and
+    actuator moment at random poses (1e-12), NaN at joints without a pinned cylinder; the
+    Markdown lists the closed forms."""
+    spec = ml.builtin_spec("excavator")
+    py, source, lib = tmp_path / "exc.py", tmp_path / "exc.c", tmp_path / "libexc.so"
+    assert main(["model", "excavator", "-o", str(py)]) == 0
+    assert main(["model", "excavator", "--format", "c", "-o", str(source)]) == 0
+    subprocess.run([CC, "-O1", "-shared", "-fPIC", "-Wall", "-Werror", "-Wno-unused-variable",
+                    str(source), "-o", str(lib), "-lm"], check=True)
+    mod_spec = importlib.util.spec_from_file_location("exc", py)
+    module = importlib.util.module_from_spec(mod_spec)
+    mod_spec.loader.exec_module(module)
+    so = ctypes.CDLL(str(lib))
+    dp = ctypes.POINTER(ctypes.c_double)
+    rng = np.random.default_rng(4)
+    for _ in range(5):
+        q = np.array([rng.uniform(*j.limits) for j in spec.joints])
+        length, arm = _tendon_terms(spec, q)
+        np.testing.assert_allclose(module.cylinder_length(q), length, rtol=1e-12)
+        np.testing.assert_allclose(module.moment_arm(q), arm, rtol=1e-12)
+        for fn, want in (("cylinder_length", length), ("moment_arm", arm)):
+            out = np.zeros(spec.n)
+            getattr(so, f"excavator_{fn}")(np.ascontiguousarray(q).ctypes.data_as(dp),
+                                           out.ctypes.data_as(dp))
+            np.testing.assert_allclose(out, want, rtol=1e-12)
+    markdown = tmp_path / "exc.md"
+    assert main(["model", "excavator", "--format", "markdown", "-o", str(markdown)]) == 0
+    assert markdown.read_text().count("\\tau_{") == 3

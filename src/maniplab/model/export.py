@@ -11,12 +11,14 @@
 
 from __future__ import annotations
 
+import dataclasses
 import re
 from collections.abc import Iterable
 from typing import Any
 
 import sympy
 
+from maniplab.actuators.hydraulic.pinned import PinnedCylinder
 from maniplab.model.build import Generated, generate
 from maniplab.model.codegen import c_function, c_printer, python_function, python_printer
 from maniplab.model.dynamics import derive
@@ -24,7 +26,7 @@ from maniplab.model.engine import get_engine
 from maniplab.model.errors import ModelArgumentError
 from maniplab.model.parameters import arm_terms
 from maniplab.model.version import package_version
-from maniplab.spec import ManipulatorSpec
+from maniplab.spec import ManipulatorSpec, model_of
 
 FORMATS = ("latex", "markdown", "python", "c")
 SUFFIXES = {".tex": "latex", ".md": "markdown", ".py": "python", ".c": "c"}
@@ -157,6 +159,11 @@ def _latex_document(spec: ManipulatorSpec, doc: Readable) -> str:
         lines += [r"\subsection*{" + esc(title) + "}", r"\begin{align*}"]
         lines += [f"{label} &= {doc.latex(e)} \\\\" for label, e in rows]
         lines.append(r"\end{align*}")
+    cylinders = cylinder_terms(spec)
+    if cylinders:
+        lines += [r"\subsection*{Cylinders}", esc(CYLINDER_INTRO), r"\begin{align*}"]
+        lines += [line.replace(" = ", " &= ", 1) + r" \\" for c in cylinders for line in c.latex()]
+        lines.append(r"\end{align*}")
     lines.append(r"\end{document}")
     return "\n".join(lines) + "\n"
 
@@ -174,6 +181,10 @@ def _markdown_document(spec: ManipulatorSpec, doc: Readable) -> str:
     for title, rows in sections:
         lines += [f"## {title}", ""]
         lines += [f"$$ {label} = {doc.latex(e)} $$\n" for label, e in rows]
+    cylinders = cylinder_terms(spec)
+    if cylinders:
+        lines += ["## Cylinders", "", CYLINDER_INTRO, ""]
+        lines += [f"$$ {line} $$\n" for c in cylinders for line in c.latex()]
     return "\n".join(lines)
 
 
@@ -206,10 +217,13 @@ def python_module(spec: ManipulatorSpec) -> str:
            "M(q) (N, N); C(q, qd) (N, N), Christoffel form; G(q) (N,); bias(q, qd) = C qd + G;",
            "inverse_dynamics(q, qd, qdd) = M qdd + C qd + G (add FV * qd for viscous friction);",
            "fk(q) 4x4 end-effector pose; jacobian(q) (6, N) [linear; angular], base frame.",
+           "cylinder_length(q), moment_arm(q) (N,): each pinned cylinder's pin-to-pin length s",
+           "and r = ds/dq (NaN at joints without one); the joint force is (pA A_A - pB A_B) r.",
            '"""', "", "from math import cos, sin, sqrt  # noqa: F401", "", "import numpy as np", "",
            f"N = {n}", f"JOINTS = {spec.joint_names!r}",
            f"FV = np.array({[j.friction.viscous for j in spec.joints]!r})  # viscous friction",
            f"P = (\n{params}\n)" if params else "P = (0.0,)", ""]
+    out += _python_cylinders(spec)
     for name, args in _PUBLIC:
         ck = kernels[name]
         kernel_src = python_function(ck, printer).replace(f"def {name}(", f"def _{name}(", 1)
@@ -241,7 +255,11 @@ def c_file(spec: ManipulatorSpec) -> str:
            " * Arrays of doubles; outputs row-major (C order):", docs,
            " * M: inertia matrix; C: Christoffel matrix; G: gravity; bias: C qd + G;",
            " * inverse_dynamics: M qdd + C qd + G (add fv[i] * qd[i] for viscous friction);",
-           " * fk: 4x4 end-effector pose; jacobian: 6 x N, rows [linear; angular], base frame.", " */",
+           " * fk: 4x4 end-effector pose; jacobian: 6 x N, rows [linear; angular], base frame.",
+           f" *   void {prefix}_cylinder_length(const double *q, double *out);  out: (N,)",
+           f" *   void {prefix}_moment_arm(const double *q, double *out);  out: (N,)",
+           " * each pinned cylinder's pin-to-pin length s and r = ds/dq (NAN at joints without one);",
+           " * the joint force is (pA A_A - pB A_B) r.", " */",
            "#include <math.h>", "", f"#define {prefix.upper()}_N {n}", "",
            f"const double {prefix}_fv[{n}] = {{{', '.join(repr(j.friction.viscous) for j in spec.joints)}}};",
            f"static const double P[{len(values)}] = {{\n{params}\n}};", ""]
@@ -251,8 +269,93 @@ def c_file(spec: ManipulatorSpec) -> str:
         full = list(args) + ["0"] * (3 - len(args))
         out += [f"void {prefix}_{name}({', '.join(f'const double *{a}' for a in args)}, double *out)",
                 f"{{\n    k_{name}(P, {', '.join(full)}, out);\n}}", ""]
-    return "\n".join(out)
+    return "\n".join(out + _c_cylinders(spec, prefix))
 
 
-__all__ = ["DEFAULT_SYMBOLIC", "FORMATS", "SUFFIXES", "c_file", "export_model", "python_module",
-           "readable"]
+
+# --- the pinned cylinders' terms -----------------------------------------------------------------
+
+CYLINDER_INTRO = ("Each pinned cylinder's pin-to-pin length s(q) and moment arm r(q) = ds/dq, in "
+                  "closed form; its joint force is (p_A A_A - p_B A_B) r(q).")
+
+
+@dataclasses.dataclass(frozen=True)
+class CylinderTerms:
+    """One pinned cylinder's closed form (see :mod:`maniplab.actuators.hydraulic.geometry`).
+
+    Attributes:
+        joint: its joint's index.  name: the joint's name.  prismatic: a sliding joint.
+        constants: (K, ρ, φ) or (w², b, 0).  areas: (A_A, A_B), m².
+    """
+
+    joint: int
+    name: str
+    prismatic: bool
+    constants: tuple[float, float, float]
+    areas: tuple[float, float]
+
+    def latex(self) -> list[str]:
+        """s², r and the force as LaTeX equations."""
+        q, (a, b, c) = f"q_{{{self.joint + 1}}}", self.constants
+        s = f"s_{{{self.joint + 1}}}"
+        if self.prismatic:
+            square = f"{s}^2 = {a!r} + ({q} + {b!r})^2"
+            arm = f"r_{{{self.joint + 1}}} = ({q} + {b!r}) / {s}"
+        else:
+            square = f"{s}^2 = {a!r} - 2 \\cdot {b!r} \\cos({q} - {c!r})"
+            arm = f"r_{{{self.joint + 1}}} = {b!r} \\sin({q} - {c!r}) / {s}"
+        force = (f"\\tau_{{{self.joint + 1}}} = (p_A \\cdot {self.areas[0]!r} - p_B \\cdot "
+                 f"{self.areas[1]!r})\\, r_{{{self.joint + 1}}}")
+        return [square, arm, force]
+
+
+def cylinder_terms(spec: ManipulatorSpec) -> list[CylinderTerms]:
+    """The closed forms of the spec's pinned cylinders, in joint order."""
+    out = []
+    for j, joint in enumerate(spec.joints):
+        actuator = model_of(joint)
+        if isinstance(actuator, PinnedCylinder):
+            c = actuator.params.cylinder
+            out.append(CylinderTerms(j, joint.name, joint.prismatic, actuator.geometry.constants,
+                                     (c.cap_area, c.rod_area)))
+    return out
+
+
+def _python_cylinders(spec: ManipulatorSpec) -> list[str]:
+    rows = "\n".join(f"    ({c.joint}, {c.prismatic}, {c.constants!r}),  # {c.name}"
+                     for c in cylinder_terms(spec))
+    return [f"CYLINDERS = (  # joint, prismatic, (K, rho, phi) or (w^2, b, 0)\n{rows}\n)"
+            if rows else "CYLINDERS = ()", "", "",
+            "def cylinder_length(q):",
+            '    """Each pinned cylinder\'s pin-to-pin length s(q), m, (N,) (NaN elsewhere)."""',
+            "    out = np.full(N, np.nan)",
+            "    for j, prismatic, (a, b, c) in CYLINDERS:",
+            "        out[j] = sqrt(a + (q[j] + b) ** 2) if prismatic else sqrt(a - 2 * b * cos(q[j] - c))",
+            "    return out", "", "",
+            "def moment_arm(q):",
+            '    """Each pinned cylinder\'s r(q) = ds/dq, (N,) (NaN elsewhere)."""',
+            "    s, out = cylinder_length(q), np.full(N, np.nan)",
+            "    for j, prismatic, (a, b, c) in CYLINDERS:",
+            "        out[j] = (q[j] + b) / s[j] if prismatic else b * sin(q[j] - c) / s[j]",
+            "    return out", ""]
+
+
+def _c_cylinders(spec: ManipulatorSpec, prefix: str) -> list[str]:
+    cylinders = cylinder_terms(spec)
+    length, arm = [], []
+    for c in cylinders:
+        j, (a, b, k) = c.joint, c.constants
+        s = (f"sqrt({a!r} + (q[{j}] + {b!r}) * (q[{j}] + {b!r}))" if c.prismatic
+             else f"sqrt({a!r} - 2.0 * {b!r} * cos(q[{j}] - {k!r}))")
+        length.append(f"    out[{j}] = {s};")
+        arm.append(f"    out[{j}] = " + (f"(q[{j}] + {b!r}) / {s};" if c.prismatic
+                                        else f"{b!r} * sin(q[{j}] - {k!r}) / {s};"))
+    n = spec.n
+    blank = f"    for (int i = 0; i < {n}; i++) out[i] = NAN;"
+    return [f"void {prefix}_cylinder_length(const double *q, double *out)", "{", blank, *length,
+            "}", "", f"void {prefix}_moment_arm(const double *q, double *out)", "{", blank, *arm,
+            "}", ""]
+
+
+__all__ = ["DEFAULT_SYMBOLIC", "FORMATS", "SUFFIXES", "c_file", "cylinder_terms", "export_model",
+           "python_module", "readable"]

@@ -70,6 +70,14 @@ class PinGeometry:
             self._rho = math.hypot(alpha, beta)
             self._phi = math.atan2(beta, alpha)
 
+    @property
+    def constants(self) -> tuple[float, float, float]:
+        """The closed form's constants: (K, ρ, φ) on a rotational joint, s² = K - 2ρ cos(q - φ);
+        (w², b, 0) on a prismatic one, s² = w² + (q + b)²."""
+        if self.prismatic:
+            return self._w2, self._b, 0.0
+        return self._k, self._rho, self._phi
+
     # --- s, r and dr/dq -----------------------------------------------------------------------
     def _offset(self, q: Array) -> Array:
         """q + b (prismatic) or q - φ (rotational)."""
