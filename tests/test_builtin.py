@@ -8,10 +8,10 @@ import maniplab as ml
 
 
 def test_builtin_names():
-    assert ml.builtin_specs() == ["crane3", "erector", "excavator", "patu655", "planar2"]
+    assert ml.builtin_specs() == ["crane3", "erector", "erector_pinned", "excavator", "patu655", "planar2"]
 
 
-@pytest.mark.parametrize("name", ["crane3", "erector", "excavator", "patu655", "planar2"])
+@pytest.mark.parametrize("name", ["crane3", "erector", "erector_pinned", "excavator", "patu655", "planar2"])
 def test_each_builtin_loads_under_its_name(name):
     spec = ml.builtin_spec(name)
     assert spec.name == name
@@ -22,7 +22,7 @@ def test_unknown_builtin_lists_the_names():
     with pytest.raises(ml.SpecError) as info:
         ml.builtin_spec("erecter")
     assert "no built-in spec 'erecter'" in info.value.problem
-    assert "crane3, erector, excavator, patu655, planar2" in info.value.problem
+    assert "crane3, erector, erector_pinned, excavator, patu655, planar2" in info.value.problem
     assert "did you mean 'erector'" in info.value.problem
 
 
@@ -141,7 +141,7 @@ def test_resolve_neither_file_nor_builtin(tmp_path, monkeypatch):
         ml.resolve_spec("planar3")
     error = info.value
     assert error.file == "planar3"
-    for word in ["no such file and no built-in spec", "crane3, erector, excavator, patu655, planar2",
+    for word in ["no such file and no built-in spec", "crane3, erector, erector_pinned, excavator, patu655, planar2",
                  "did you mean 'planar2'"]:  # fmt: skip
         assert word in error.problem
 

@@ -288,10 +288,10 @@ class PinnedCylinder(ActuatorPlugin):
         s, r = self.geometry.length(q), self.geometry.arm(q)
         allowed = self.geometry.span(c.min_length, c.max_length, 0.5 * (lo + hi))
         unit = self.geometry.unit
-        arm_unit = "" if j.prismatic else "/rad"
+        arm_unit = "" if j.prismatic else " m/rad"
         where = (f"{j.name}: cylinder s {s.min():.4g}..{s.max():.4g} m over the limits (its stroke "
                  f"allows [{allowed[0]:.4g}, {allowed[1]:.4g}] {unit}), r(q) {r.min():.4g}.."
-                 f"{r.max():.4g} m{arm_unit}")
+                 f"{r.max():.4g}{arm_unit}")
         sizes = (f"{' ' * len(j.name)}  A_A {c.cap_area * 1e4:.4g} cm², A_B "
                  f"{c.rod_area * 1e4:.4g} cm², valve edges K_A {law.gain_a:.4g}, K_B "
                  f"{law.gain_b:.4g} m³/(s·√Pa)")
