@@ -199,11 +199,11 @@ def _tendon_terms(spec: ml.ManipulatorSpec, q: np.ndarray) -> tuple[np.ndarray, 
     return length, arm
 
 
-@pytest.mark.skipif(CC is None, reason="no C compiler")
 def test_exported_cylinder_terms_match_mujocos_tendons(tmp_path: Path) -> None:
     """The Python and C exports' cylinder_length and moment_arm equal MuJoCo's tendon length and
     actuator moment at random poses (1e-12), NaN at joints without a pinned cylinder; the
     Markdown lists the closed forms."""
+    assert CC is not None, "maniplab's native plugins need a C compiler; so does this test"
     spec = ml.builtin_spec("excavator")
     py, source, lib = tmp_path / "exc.py", tmp_path / "exc.c", tmp_path / "libexc.so"
     assert main(["model", "excavator", "-o", str(py)]) == 0

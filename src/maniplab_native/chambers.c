@@ -13,6 +13,12 @@ double ml_chambers_force(const ml_chambers* c, double pa, double pb) {
   return ml_chambers_force_law(c, pa, pb);
 }
 
+/* The force at `count` samples: out[k] = force(pa[k], pb[k]), N. */
+void ml_chambers_forces(const ml_chambers* c, int count, const double* pa, const double* pb,
+                        double* out) {
+  for (int k = 0; k < count; k++) out[k] = ml_chambers_force_law(c, pa[k], pb[k]);
+}
+
 /* out = (Q_A, Q_B, V_A, V_B): the valve's flows into the chambers at (x, pA, pB), m^3/s, and
    the chamber volumes at length s, m^3. */
 void ml_chambers_flows(const ml_chambers* c, double pa, double pb, double x, double s,

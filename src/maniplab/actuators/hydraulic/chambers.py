@@ -36,6 +36,7 @@ _C = Functions({
     "ml_chambers_rates": (None, [_LAW, _D, _D, _D, _D, _D, _D, _P]),
     "ml_chambers_force": (_D, [_LAW, _D, _D]),
     "ml_chambers_flows": (None, [_LAW, _D, _D, _D, _D, _P]),
+    "ml_chambers_forces": (None, [_LAW, ctypes.c_int, _P, _P, _P]),
 })
 """The C functions (``maniplab_native/chambers.c``)."""
 
@@ -76,6 +77,15 @@ def rates(law: ChambersLaw, x: np.ndarray, u: float, s: float, sdot: float) -> n
 def force(law: ChambersLaw, pa: float, pb: float) -> float:
     """pA A_A - pB A_B with the pressures within [Pt, p_r], N."""
     return float(_C().ml_chambers_force(ctypes.byref(law), float(pa), float(pb)))
+
+
+def forces(law: ChambersLaw, pa: np.ndarray, pb: np.ndarray) -> np.ndarray:
+    """:func:`force` at N samples: pA, pB (N,) -> (N,), N."""
+    a, b = (np.ascontiguousarray(v, dtype=float) for v in (pa, pb))
+    out = np.empty(a.size)
+    _C().ml_chambers_forces(ctypes.byref(law), a.size, a.ctypes.data, b.ctypes.data,
+                            out.ctypes.data)
+    return out
 
 
 def flows(law: ChambersLaw, x: np.ndarray, s: float) -> np.ndarray:

@@ -123,8 +123,12 @@ class PinnedCylinder(ActuatorPlugin):
         """``stroke``: the piston's travel s(q) - min_length, m; ``cylinder_force``: pA A_A -
         pB A_B along the pins, N (positive pushing them apart)."""
         travel = self.geometry.length(q) - self.params.cylinder.min_length
-        force = np.array([self.cylinder_force(row) for row in x])
+        force = chambers.forces(self.law, x[:, 0], x[:, 1])
         return {"stroke": np.asarray(travel, dtype=float), "cylinder_force": force}
+
+    def forces(self, x: np.ndarray, u: np.ndarray, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """:meth:`force` at N samples, (N,)."""
+        return chambers.forces(self.law, x[:, 0], x[:, 1]) * self.geometry.arm(q)
 
     def holding_range(self, q: float) -> tuple[float, float]:
         """The joint forces held with the valve closed: one chamber at the relief's setting (or
