@@ -231,7 +231,10 @@ def test_orientation_errors_take_every_branch_of_the_rotation_log(angle: float) 
         controller.step(k * controller.dt, q, qd, dP=dP)
         reference.step(k * controller.dt, q, qd, dP=dP)
     got, want = controller.signals()["e_x"], reference.signals()["e_x"]
-    np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-13)
+    # At pi the log's axis comes from sqrt((R + Rᵀ)/2 + ...), whose slope is infinite there: a
+    # rounding difference eps in R moves it by about sqrt(eps) ~ 1e-8. Elsewhere it is smooth.
+    atol = 1e-7 if angle > np.pi - 1e-5 else 1e-13
+    np.testing.assert_allclose(got, want, rtol=1e-12, atol=atol)
     assert np.linalg.norm(want[0, 3:]) == pytest.approx(angle, abs=1e-7)  # acos near pi
 
 

@@ -20,7 +20,9 @@ import subprocess
 import sysconfig
 import tempfile
 import threading
+import time
 from pathlib import Path
+from typing import Any
 
 PLUGINS = ("maniplab.hydraulic", "maniplab.cylinder", "maniplab.lugre")
 """The MuJoCo plugins the library registers."""
@@ -86,6 +88,41 @@ def run_compiler(argv: list[str], timeout: float | None = None) -> subprocess.Co
         _kill_group(proc)
         raise
     return subprocess.CompletedProcess(argv, proc.returncode, stdout, stderr)
+
+
+def run_compilers(argvs: list[list[str]], jobs: int) -> list[subprocess.CompletedProcess[str]]:
+    """Run compiler commands, at most ``jobs`` at a time, each as :func:`run_compiler` does.
+
+    Their messages go to temporary files (a full pipe nobody reads would stall a compiler).
+    Ctrl-C kills every running compiler's group before it propagates.
+
+    Returns:
+        One completed process per command, in the order of ``argvs``.
+    """
+    results: list[subprocess.CompletedProcess[str] | None] = [None] * len(argvs)
+    running: dict[int, tuple[subprocess.Popen[str], Any]] = {}
+    pending = list(range(len(argvs)))
+    try:
+        while pending or running:
+            while pending and len(running) < max(1, jobs):
+                i = pending.pop(0)
+                log = tempfile.TemporaryFile(mode="w+")  # noqa: SIM115 (closed when it ends)
+                running[i] = (subprocess.Popen(argvs[i], stdout=log, stderr=log, text=True,
+                                               start_new_session=True), log)
+            for i, (proc, log) in list(running.items()):
+                if proc.poll() is not None:
+                    log.seek(0)
+                    results[i] = subprocess.CompletedProcess(argvs[i], proc.returncode, "",
+                                                             log.read())
+                    log.close()
+                    del running[i]
+            time.sleep(0.01)
+    except BaseException:
+        for proc, log in running.values():
+            _kill_group(proc)
+            log.close()
+        raise
+    return [r for r in results if r is not None]
 
 
 def _kill_group(proc: subprocess.Popen[str]) -> None:

@@ -27,7 +27,7 @@
 
 #include <mujoco/mujoco.h>
 
-/* A kernel of the arm's compiled analytic model (maniplab.model.codegen): out from the model's
+/* A kernel of the arm's compiled analytic model (maniplab.model.tape): out from the model's
    parameter vector p and the state (q, qd, qdd; unused ones may be NULL). */
 typedef void (*ml_kernel_fn)(const double* p, const double* q, const double* qd,
                              const double* qdd, double* out);

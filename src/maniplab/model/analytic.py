@@ -10,9 +10,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from maniplab.model.build import load_kernels
-from maniplab.model.engine import get_engine
 from maniplab.model.errors import ModelArgumentError
-from maniplab.model.parameters import arm_terms
+from maniplab.model.inertial import inertial_parameters
 from maniplab.spec import ManipulatorSpec
 
 _LIBRARIES: dict[str, ctypes.CDLL] = {}  # a compiled model's file -> its ctypes handle
@@ -21,10 +20,13 @@ _LIBRARIES: dict[str, ctypes.CDLL] = {}  # a compiled model's file -> its ctypes
 class AnalyticModel:
     """M(q), C(q, q̇), G(q), friction, kinematics and stuck-joint dynamics of one arm, compiled.
 
-    The equations are derived symbolically from the spec (the paper's eqs. 1-3), shrunk by
-    common-subexpression elimination and compiled to C (or run as generated Python when there is
-    no C compiler). The generated code depends only on the arm's structure; the spec's values are
-    a runtime parameter vector, so arms that differ only in masses, lengths or payload share it.
+    The recursive algorithms of rigid-body dynamics (Newton-Euler for the forces, composite
+    rigid bodies for M, Echeandia-Wensing for the Christoffel C) are recorded once for the arm's
+    structure as straight-line code and compiled to C (or run as generated Python when there is
+    no C compiler); the code grows about linearly with the number of joints. It depends only on
+    the arm's structure; the spec's values are a runtime parameter vector, so arms that differ
+    only in masses, lengths or payload share it. The readable closed forms of M, C and G are
+    :meth:`symbolic`'s.
 
     Every state argument is one state, shape (n,), or a batch, shape (N, n): a batch returns a
     leading N axis and is looped in C. Units: q in rad (R joints) or m (P joints), q̇ in rad/s or
@@ -45,9 +47,11 @@ class AnalyticModel:
                  progress: bool | None = None) -> None:
         self.spec = spec
         self.n = spec.n
-        terms = arm_terms(spec, get_engine("auto"), slots=True)
-        self.params = np.array(terms.slot_values, dtype=float) if terms.slot_values else np.zeros(1)
-        self.param_labels: tuple[str, ...] = tuple(terms.slot_labels)
+        inertial = inertial_parameters(spec)
+        self.params = inertial.values
+        """The runtime parameter vector p the kernels read, shape (P,): each body's standard
+        inertial parameters (payload included), offsets, gravity (see :attr:`param_labels`)."""
+        self.param_labels: tuple[str, ...] = inertial.labels
         self.params.setflags(write=False)
         self._k = load_kernels(spec, backend, use_cache=cache, progress=progress)
         self.backend: str = self._k.backend
@@ -183,7 +187,7 @@ class AnalyticModel:
         inverse_dynamics, fk, jacobian), for C code that calls the model itself (the compiled
         cascade): ``void ml_<name>(const double *p, const double *q, const double *qd,
         const double *qdd, double *out)`` with ``p`` = :attr:`params` (see
-        :mod:`~maniplab.model.codegen`).
+        :mod:`~maniplab.model.tape`).
 
         Raises:
             ModelArgumentError: the model runs on the Python backend (nothing compiled).

@@ -1,11 +1,12 @@
-"""From a spec to loaded numeric kernels: generate (symbolic, cse), compile or not, cache, load.
+"""From a spec to loaded numeric kernels: record the recursive algorithms, print, compile, cache, load.
 
 Backends:
 
-- ``"c"``: the kernels as C (one translation unit with a small CPython extension, see ``cext``),
-  compiled with the system's C compiler. About a microsecond per call for a 6-DOF arm.
-- ``"python"``: the same eliminated expressions as Python source, evaluated with ``math`` for one
-  state and with numpy over a batch. No compiler needed; tens of microseconds per call.
+- ``"c"``: each kernel in a C file of its own (math.h only), compiled in parallel on every core
+  and linked with a small CPython extension (see ``cext``). Under a microsecond per call for a
+  6-joint arm.
+- ``"python"``: the same statements as Python source, evaluated with ``math`` for one state and
+  with numpy over a batch. No compiler needed.
 
 ``"auto"`` takes C when a compiler and Python's headers are there, else Python.
 """
@@ -15,6 +16,7 @@ from __future__ import annotations
 import dataclasses
 import importlib.machinery
 import importlib.util
+import os
 import shutil
 import sys
 import tempfile
@@ -26,24 +28,18 @@ import numpy as np
 
 from maniplab.model import cache
 from maniplab.model.cext import extension_source
-from maniplab.model.codegen import (
-    GENERATOR_VERSION,
-    CseKernel,
-    c_function,
-    c_printer,
-    eliminate,
-    model_kernels,
-    python_function,
-    python_printer,
-)
-from maniplab.model.compiler import compile_shared, find_compiler
-from maniplab.model.dynamics import derive
-from maniplab.model.engine import Engine, get_engine
+from maniplab.model.compiler import compile_objects, find_compiler, link_shared
 from maniplab.model.errors import ModelArgumentError
-from maniplab.model.parameters import ArmTerms, arm_terms, structure_key
+from maniplab.model.inertial import InertialParameters, inertial_parameters
+from maniplab.model.parameters import structure_key
+from maniplab.model.recursive import model_kernels
+from maniplab.model.tape import TapeKernel, c_function, python_function
 from maniplab.model.version import package_version
 from maniplab.progress import Progress
 from maniplab.spec import ManipulatorSpec
+
+#: Bump when the generated code changes in any way: it is part of every cache key.
+GENERATOR_VERSION = "3"
 
 BACKENDS = ("auto", "c", "python")
 _LOADED: dict[str, Any] = {}  # cache key -> loaded kernels, for this process
@@ -52,59 +48,33 @@ _LOCK = threading.Lock()
 
 @dataclasses.dataclass
 class Generated:
-    """The eliminated kernels of one arm structure.
+    """The recorded kernels of one arm structure.
 
     Attributes:
         n: degrees of freedom.
-        terms: the parameters in slot mode (slot values and labels).
-        kernels: the kernels after cse.
-        engine: the symbolic library used.
+        params: the inertial parameters (the runtime vector's values and labels).
+        kernels: one per function of the model.
     """
 
     n: int
-    terms: ArmTerms
-    kernels: list[CseKernel]
-    engine: Engine
+    params: InertialParameters
+    kernels: list[TapeKernel]
 
 
-def symbols(engine: Engine, n: int) -> tuple[list[Any], list[Any], list[Any]]:
-    """Joint position, velocity and acceleration symbols q0.., qd0.., qdd0.. (0-based)."""
-    q, qd, qdd = ([engine.symbol(f"{v}{i}") for i in range(n)] for v in ("q", "qd", "qdd"))
-    return q, qd, qdd
-
-
-def generate(spec: ManipulatorSpec, progress: Progress | None = None,
-             engine: Engine | None = None) -> Generated:
-    """Derive the arm's equations with runtime parameter slots and eliminate subexpressions."""
-    engine = engine or get_engine("auto")
-    terms = arm_terms(spec, engine, slots=True)
-    q, qd, qdd = symbols(engine, spec.n)
-    ch, dyn = derive(spec, terms, q, qd, engine)
+def generate(spec: ManipulatorSpec, progress: Progress | None = None) -> Generated:
+    """Record the arm's kernels (RNEA, CRBA, Christoffel, kinematics) with runtime parameter slots."""
+    params = inertial_parameters(spec)
+    axes = ["xyz".index(j.axis.value) for j in spec.joints]
+    kernels = model_kernels(params, axes, [j.prismatic for j in spec.joints])
     if progress:
-        progress.step("derived M, C, G")
-    out = []
-    for kernel in model_kernels(ch, dyn, qdd, engine):
-        out.append(eliminate(kernel, engine))
-        if progress:
-            progress.step(f"cse {kernel.name}")
-    return Generated(spec.n, terms, out, engine)
-
-
-def c_kernels_source(gen: Generated, header: str = "") -> str:
-    """Plain C source of all kernels (math.h only)."""
-    printer = c_printer(gen.engine)
-    parts = [header, "#include <math.h>", "",
-             f"#define ML_N {gen.n}", f"#define ML_NP {max(len(gen.terms.slot_values), 1)}", ""]
-    parts += [c_function(ck, printer) + "\n" for ck in gen.kernels]
-    return "\n".join(parts)
+        progress.step(f"recorded {sum(k.ops for k in kernels)} operations")
+    return Generated(spec.n, params, kernels)
 
 
 def python_kernels_source(gen: Generated, header: str = "") -> str:
     """Python source of all kernels; expects sin, cos (and sqrt) in its namespace."""
-    printer = python_printer(gen.engine)
-    parts = [header] + [python_function(ck, printer) + "\n\n" for ck in gen.kernels]
-    table = ", ".join(f"{ck.kernel.name!r}: ({ck.kernel.nin}, {ck.kernel.outputs!r})"
-                      for ck in gen.kernels)
+    parts = [header] + [python_function(k) + "\n\n" for k in gen.kernels]
+    table = ", ".join(f"{k.name!r}: ({k.nin}, {k.output_shapes!r})" for k in gen.kernels)
     parts.append(f"# kernel name -> (how many of q, qd, qdd it reads, output shapes)\n"
                  f"KERNELS = {{{table}}}\n")
     return "\n".join(parts)
@@ -115,7 +85,6 @@ def cache_inputs(spec: ManipulatorSpec, backend: str) -> dict[str, Any]:
     inputs: dict[str, Any] = {
         "structure": structure_key(spec), "n": spec.n, "maniplab": package_version(),
         "generator": GENERATOR_VERSION, "backend": backend,
-        "engine": _engine_ident(),
     }
     if backend == "c":
         compiler = find_compiler()
@@ -123,11 +92,6 @@ def cache_inputs(spec: ManipulatorSpec, backend: str) -> dict[str, Any]:
         inputs["python"] = sys.implementation.cache_tag
         inputs["numpy"] = np.__version__
     return inputs
-
-
-def _engine_ident() -> str:
-    engine = get_engine("auto")
-    return f"{engine.name} {getattr(engine.module, '__version__', '?')}"
 
 
 def resolve_backend(backend: str) -> str:
@@ -174,7 +138,7 @@ def load_kernels(spec: ManipulatorSpec, backend: str = "auto", *, use_cache: boo
 
 def _build_entry(spec: ManipulatorSpec, backend: str, key: str, inputs: dict[str, Any],
                  progress: bool | None, use_cache: bool) -> Path:
-    bar = Progress(9 + (backend == "c"), f"maniplab: generating the {spec.name} model", progress)
+    bar = Progress(2 + (backend == "c"), f"maniplab: generating the {spec.name} model", progress)
     stage: Path | None = None
     try:
         gen = generate(spec, bar)
@@ -189,22 +153,33 @@ def _build_entry(spec: ManipulatorSpec, backend: str, key: str, inputs: dict[str
         bar.close()
 
 
-def _write_entry(gen: Any, stage: Path, backend: str, key: str, bar: Progress) -> None:
-    """The files of a model entry in ``stage``: the kernels (a compiled extension or Python
-    source) and the slot labels."""
+def _write_entry(gen: Generated, stage: Path, backend: str, key: str, bar: Progress) -> None:
+    """The files of a model entry in ``stage``: the kernels (a compiled extension with its C
+    sources, or Python source) and the parameter labels."""
     header = f"/* maniplab generated model, structure {key[:16]} */"
     if backend == "c":
         module = _module_name(key)
-        source = stage / f"{module}.c"
-        source.write_text(c_kernels_source(gen, header) + extension_source(gen.kernels, module))
+        sources = []
+        for k in gen.kernels:
+            path = stage / f"{k.name}.c"
+            path.write_text(f"{header}\n#include <math.h>\n\n{c_function(k)}\n")
+            sources.append(path)
+        wrapper = stage / f"{module}.c"
+        wrapper.write_text(f"{header}\n" + extension_source(gen.kernels, module, gen.n,
+                                                               len(gen.params.values)))
         compiler = find_compiler()
         assert compiler is not None, "resolve_backend chooses 'c' only with a compiler"
-        compile_shared(compiler, source, stage / f"{module}.so", extension=True)
+        bar.step(f"printed {len(sources)} C files")
+        objects = compile_objects(compiler, [*sources, wrapper], jobs=os.cpu_count() or 1,
+                                  extension=True)
+        link_shared(compiler, objects, stage / f"{module}.so")
+        for obj in objects:
+            obj.unlink()
         bar.step("compiled")
     else:
         (stage / "kernels.py").write_text(python_kernels_source(gen, f"# {header[3:-3]}"))
-    (stage / "slots.txt").write_text(
-        "\n".join(gen.terms.slot_labels) + "\n" if gen.terms.slot_labels else "")
+        bar.step("printed Python")
+    (stage / "slots.txt").write_text("\n".join(gen.params.labels) + "\n")
 
 
 def _module_name(key: str) -> str:
@@ -239,6 +214,8 @@ class PythonKernels:
         import math
 
         self.n, self.key, self.folder = n, key, folder
+        self._last_p: np.ndarray | None = None
+        self._last_list: list[float] = []
         code = compile(source, str(folder / "kernels.py") if folder else "<kernels>", "exec")
         self._scalar: dict[str, Any] = {"sin": math.sin, "cos": math.cos, "sqrt": math.sqrt}
         self._vector: dict[str, Any] = {"sin": np.sin, "cos": np.cos, "sqrt": np.sqrt}
@@ -248,11 +225,21 @@ class PythonKernels:
         for name, (nin, shapes) in self._scalar["KERNELS"].items():
             setattr(self, name, self._wrap(name, nin, shapes))
 
+    def _params(self, p: Any) -> list[float]:
+        """``p`` as a list; a read-only array (the model's own) is converted once."""
+        if isinstance(p, np.ndarray) and not p.flags.writeable:
+            if p is not self._last_p:
+                self._last_p, self._last_list = p, p.tolist()
+            return self._last_list
+        return np.asarray(p, dtype=float).tolist()
+
     def _wrap(self, name: str, nin: int, shapes: tuple[tuple[int, ...], ...]) -> Any:
         scalar, vector, n = self._scalar[name], self._vector[name], self.n
         sizes = [int(np.prod(s)) for s in shapes]
 
         def split(flat: np.ndarray, lead: tuple[int, ...]) -> Any:
+            if len(shapes) == 1:
+                return flat.reshape(*lead, *shapes[0])
             parts, start = [], 0
             for shape, size in zip(shapes, sizes):
                 parts.append(flat[..., start:start + size].reshape(*lead, *shape).copy())
@@ -262,15 +249,16 @@ class PythonKernels:
         def call(p: Any, *states: Any) -> Any:
             if len(states) != nin:
                 raise TypeError(f"{name}() takes {nin + 1} arguments ({len(states) + 1} given)")
+            params = self._params(p)
             arrays = [np.asarray(s, dtype=float) for s in states]
             q = arrays[0]
             if q.shape == (n,):
                 args = [a.tolist() for a in arrays] + [None] * (3 - nin)
-                return split(np.array(scalar(np.asarray(p).tolist(), *args)), ())
+                return split(np.array(scalar(params, *args)), ())
             if q.ndim != 2 or q.shape[1] != n or any(a.shape != q.shape for a in arrays):
                 raise ValueError(f"{name}(): q must have shape ({n},) or (N, {n}), and qd, qdd its shape")
             cols = [list(a.T) for a in arrays] + [None] * (3 - nin)
-            values = vector(np.asarray(p).tolist(), *cols)
+            values = vector(params, *cols)
             out = np.empty((q.shape[0], len(values)))
             for i, v in enumerate(values):
                 out[:, i] = v

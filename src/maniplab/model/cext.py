@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 
-from maniplab.model.codegen import CseKernel
+from maniplab.model.tape import TapeKernel
 
 _WRAPPER = r"""
 #ifdef ML_PYTHON
@@ -134,28 +134,30 @@ done:
 """
 
 
-def extension_source(kernels: list[CseKernel], module_name: str) -> str:
-    """The Python wrapper part (compiled only with -DML_PYTHON) for ``kernels``."""
-    for ck in kernels:  # a split kernel's one output must fit ml_call's stack buffer
-        assert sum(math.prod(s) for s in ck.kernel.outputs) <= ck.kernel.shape[0] ** 2 + \
-            ck.kernel.shape[0] or not ck.kernel.second
+def extension_source(kernels: list[TapeKernel], module_name: str, n: int, nparams: int) -> str:
+    """The Python wrapper's translation unit (compiled with -DML_PYTHON) for ``kernels``, which
+    are compiled separately (their ``ml_<name>`` symbols are declared here)."""
+    for k in kernels:  # a split kernel's outputs must fit ml_call's stack buffer
+        assert not k.second or sum(math.prod(s) for s in k.output_shapes) <= n * n + n
 
     def dims(shape: tuple[int, ...]) -> str:
         return f"{len(shape)}, {{{', '.join(str(s) for s in shape) or '0'}}}"
 
+    declarations = "\n".join(
+        f"void ml_{k.name}(const double *p, const double *q, const double *qd, "
+        "const double *qdd, double *out);" for k in kernels)
     table = ",\n    ".join(
-        f'{{"{ck.kernel.name}", ml_{ck.kernel.name}, {ck.kernel.nin}, {dims(ck.kernel.shape)}, '
-        f'{dims(ck.kernel.second)}}}'
-        for ck in kernels)
+        f'{{"{k.name}", ml_{k.name}, {k.nin}, {dims(k.shape)}, {dims(k.second)}}}'
+        for k in kernels)
     wrappers = "\n".join(
-        f"static PyObject *py_{ck.kernel.name}(PyObject *self, PyObject *const *args, "
+        f"static PyObject *py_{k.name}(PyObject *self, PyObject *const *args, "
         f"Py_ssize_t nargs)\n{{ (void)self; return ml_call(&ML_TABLE[{i}], args, nargs); }}"
-        for i, ck in enumerate(kernels))
+        for i, k in enumerate(kernels))
     methods = ",\n    ".join(
-        f'{{"{ck.kernel.name}", (PyCFunction)(void (*)(void))py_{ck.kernel.name}, METH_FASTCALL, '
-        f'"{ck.kernel.doc}"}}'
-        for ck in kernels)
-    return f"""{_WRAPPER}
+        f'{{"{k.name}", (PyCFunction)(void (*)(void))py_{k.name}, METH_FASTCALL, "{k.doc}"}}'
+        for k in kernels)
+    header = f"#define ML_N {n}\n#define ML_NP {max(nparams, 1)}\n{declarations}\n"
+    return header + f"""{_WRAPPER}
 static const ml_entry ML_TABLE[] = {{
     {table}
 }};

@@ -9,11 +9,11 @@ import subprocess
 import sysconfig
 from pathlib import Path
 
-from maniplab_native.build import compiler_candidates, run_compiler
+from maniplab_native.build import compiler_candidates, run_compiler, run_compilers
 
 #: Flags: optimise; keep IEEE semantics (no fused multiply-add contraction, so C and the Python
 #: fallback evaluate the same operations); -fno-math-errno only lets sin/cos be merged into sincos.
-CFLAGS = ("-O2", "-fPIC", "-shared", "-ffp-contract=off", "-fno-math-errno", "-w")
+CFLAGS = ("-O2", "-fPIC", "-ffp-contract=off", "-fno-math-errno", "-w")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -79,24 +79,40 @@ class CompileError(RuntimeError):
     """The C compiler failed on generated code (a maniplab bug, or a broken toolchain)."""
 
 
-def compile_shared(compiler: Compiler, source: Path, output: Path, *, extension: bool) -> None:
-    """Compile ``source`` into the shared library ``output``.
+def compile_objects(compiler: Compiler, sources: list[Path], *, jobs: int,
+                    extension: bool) -> list[Path]:
+    """Compile each C file to an object file beside it, ``jobs`` compilers at a time.
 
     Args:
-        extension: also build the CPython extension part (needs Python's and numpy's headers).
+        extension: give the compilers Python's and numpy's headers (for the CPython wrapper).
+
+    Returns:
+        The object files, in the order of ``sources``.
 
     Raises:
-        CompileError: with the compiler's message when compilation fails.
-        KeyboardInterrupt: Ctrl-C; the compiler is killed at once and ``output`` removed.
+        CompileError: with the first failing compiler's message.
+        KeyboardInterrupt: Ctrl-C; every running compiler is killed at once.
     """
-    argv = [*compiler.command, *CFLAGS, str(source), "-o", str(output)]
-    if extension:
-        argv += ["-DML_PYTHON", f"-I{compiler.python_include}", f"-I{compiler.numpy_include}"]
-    argv.append("-lm")
+    extra = ["-DML_PYTHON", f"-I{compiler.python_include}", f"-I{compiler.numpy_include}"] \
+        if extension else []
+    argvs = [[*compiler.command, *CFLAGS, "-c", *extra, str(src), "-o", str(src.with_suffix(".o"))]
+             for src in sources]
+    _check(argvs, run_compilers(argvs, jobs))
+    return [src.with_suffix(".o") for src in sources]
+
+
+def link_shared(compiler: Compiler, objects: list[Path], output: Path) -> None:
+    """Link object files into the shared library ``output`` (removed again on Ctrl-C)."""
+    argv = [*compiler.command, "-shared", *(str(o) for o in objects), "-o", str(output), "-lm"]
     try:
         proc = run_compiler(argv)
-    except BaseException:  # Ctrl-C: the compiler is killed; leave no half-written library
+    except BaseException:
         output.unlink(missing_ok=True)
         raise
-    if proc.returncode != 0:
-        raise CompileError(f"C compilation failed ({shlex.join(argv)}):\n{proc.stderr[-4000:]}")
+    _check([argv], [proc])
+
+
+def _check(argvs: list[list[str]], procs: list[subprocess.CompletedProcess[str]]) -> None:
+    for argv, proc in zip(argvs, procs):
+        if proc.returncode != 0:
+            raise CompileError(f"C compilation failed ({shlex.join(argv)}):\n{proc.stderr[-4000:]}")

@@ -1,15 +1,15 @@
-"""The spec's physical parameters as they enter the equations: symbols, numbers or runtime slots.
+"""The spec's physical parameters as they enter the symbolic equations: symbols or numbers.
 
 Each quantity of the arm (a body's mass, centre of gravity, inertia and offset, the payload, the
-gravity vector, the viscous friction) enters the derivation as one of
+gravity vector, the viscous friction) enters the readable derivation as one of
 
 - a **named symbol** (``m1``, ``l2``, ``me``...) when its group is asked to stay symbolic, so a
   designer can read how it enters M, C and G;
-- a **number** otherwise (the readable, numeric form);
-- a **slot** ``p0, p1, ...`` (mode ``slots``): every non-zero value becomes an entry of a runtime
-  parameter vector. Exact zeros stay zeros, so the generated code depends only on the arm's
-  *structure* (axes, joint types, which values are zero) and one compiled kernel serves every arm of
-  that structure: a payload or mass sweep never recompiles.
+- a **number** otherwise.
+
+:func:`structure_key` is what the compiled kernels depend on: the arm's structure (axes, joint
+types, which values are zero), never the non-zero values, which are a runtime parameter vector
+(see :mod:`~maniplab.model.inertial`).
 """
 
 from __future__ import annotations
@@ -61,7 +61,7 @@ class BodyTerms:
 
 @dataclasses.dataclass
 class ArmTerms:
-    """The whole arm's parameters as expressions, plus the slot values (mode ``slots``).
+    """The whole arm's parameters as expressions.
 
     Attributes:
         bodies: one per joint (zeros where the joint has no body).
@@ -69,8 +69,6 @@ class ArmTerms:
         ee_offset: payload position in the last frame, m.
         gravity: m/s², base axes.
         viscous: viscous friction per joint.
-        slot_values: value of each slot symbol p0, p1, ... in order, shape (P,).
-        slot_labels: what each slot is (e.g. "q2 body mass, kg").
         symbols: the named parameter symbols with their spec values (symbolic groups).
     """
 
@@ -79,23 +77,18 @@ class ArmTerms:
     ee_offset: Vec
     gravity: Vec
     viscous: list[Expr]
-    slot_values: list[float] = dataclasses.field(default_factory=list)
-    slot_labels: list[str] = dataclasses.field(default_factory=list)
     symbols: dict[Any, float] = dataclasses.field(default_factory=dict)
 
 
 class _Maker:
-    """Makes each quantity a named symbol, a number or a slot, and records what it made."""
+    """Makes each quantity a named symbol or a number, and records the symbols it made."""
 
-    def __init__(self, engine: Engine, symbolic: frozenset[str], slots: bool) -> None:
+    def __init__(self, engine: Engine, symbolic: frozenset[str]) -> None:
         self.engine = engine
         self.symbolic = symbolic
-        self.slots = slots
-        self.values: list[float] = []
-        self.labels: list[str] = []
         self.symbols: dict[Any, float] = {}
 
-    def __call__(self, group: str, name: str, value: float, label: str) -> Expr:
+    def __call__(self, group: str, name: str, value: float) -> Expr:
         value = float(value)
         if value == 0.0:
             return self.engine.zero
@@ -103,15 +96,11 @@ class _Maker:
             sym = self.engine.symbol(name)
             self.symbols[sym] = value
             return sym
-        if self.slots:
-            self.values.append(value)
-            self.labels.append(label)
-            return self.engine.symbol(f"p{len(self.values) - 1}")
         return self.engine.number(value)
 
 
 def arm_terms(
-    spec: ManipulatorSpec, engine: Engine, symbolic: Iterable[str] = (), slots: bool = False
+    spec: ManipulatorSpec, engine: Engine, symbolic: Iterable[str] = ()
 ) -> ArmTerms:
     """The spec's parameters as expressions for a derivation.
 
@@ -119,7 +108,6 @@ def arm_terms(
         spec: the arm.
         engine: the symbolic library.
         symbolic: groups kept as named symbols (keys of :data:`GROUPS`).
-        slots: make every other non-zero value a runtime slot ``p<k>`` instead of a number.
 
     Raises:
         ModelArgumentError: for an unknown group.
@@ -129,19 +117,19 @@ def arm_terms(
     if unknown:
         raise ModelArgumentError(f"unknown parameter group(s) {sorted(unknown)}; expected some "
                                  f"of {', '.join(GROUPS)}")
-    make = _Maker(engine, symbolic, slots)
+    make = _Maker(engine, symbolic)
     bodies = [_body_terms(spec, j, make) for j in range(spec.n)]
     ee = spec.end_effector
     return ArmTerms(
         bodies=bodies,
-        ee_mass=make("payload", "me", ee.mass, "end-effector mass, kg"),
-        ee_offset=[make("offset", f"e{a}", v, f"end-effector offset {a}, m")
+        ee_mass=make("payload", "me", ee.mass),
+        ee_offset=[make("offset", f"e{a}", v)
                    for a, v in zip(_AXES, ee.offset)],
-        gravity=[make("gravity", f"g{a}", v, f"gravity {a}, m/s^2")
+        gravity=[make("gravity", f"g{a}", v)
                  for a, v in zip(_AXES, spec.gravity)],
-        viscous=[make("friction", f"fv{j + 1}", joint.friction.viscous, f"{joint.name} viscous")
+        viscous=[make("friction", f"fv{j + 1}", joint.friction.viscous)
                  for j, joint in enumerate(spec.joints)],
-        slot_values=make.values, slot_labels=make.labels, symbols=make.symbols,
+        symbols=make.symbols,
     )
 
 
@@ -151,26 +139,25 @@ def _body_terms(spec: ManipulatorSpec, j: int, make: _Maker) -> BodyTerms:
     if body is None:
         return BodyTerms(zero, [zero] * 3, [[zero] * 3 for _ in range(3)], [zero] * 3)
     e = np.asarray(body.direction)
-    mass = make("mass", f"m{k}", body.mass, f"{joint.name} body mass, kg")
+    mass = make("mass", f"m{k}", body.mass)
     if "length" in make.symbolic and body.length > 0.0:
-        length = make("length", f"l{k}", body.length, "")
+        length = make("length", f"l{k}", body.length)
         offset = [length * make.engine.number(c) for c in e]
     else:
-        offset = [make("length", "", body.length * c, f"{joint.name} body offset {a}, m")
-                  for a, c in zip(_AXES, e)]
-    com = _com_terms(joint.name, k, body, e, offset, make)
-    inertia = _inertia_terms(joint.name, k, body, e, mass, offset, make)
+        offset = [make("length", "", body.length * c) for c in e]
+    com = _com_terms(k, body, e, offset, make)
+    inertia = _inertia_terms(k, body, e, mass, offset, make)
     return BodyTerms(mass, com, inertia, offset)
 
 
-def _com_terms(name: str, k: int, body: Any, e: np.ndarray, offset: Vec, make: _Maker) -> Vec:
+def _com_terms(k: int, body: Any, e: np.ndarray, offset: Vec, make: _Maker) -> Vec:
     default = np.allclose(body.com, 0.5 * body.length * e, rtol=0.0, atol=1e-15)
     if default and "length" in make.symbolic and "com" not in make.symbolic:
         return [c * make.engine.rational(1, 2) for c in offset]
-    return [make("com", f"c{k}{a}", v, f"{name} body COG {a}, m") for a, v in zip(_AXES, body.com)]
+    return [make("com", f"c{k}{a}", v) for a, v in zip(_AXES, body.com)]
 
 
-def _inertia_terms(name: str, k: int, body: Any, e: np.ndarray, mass: Expr, offset: Vec,
+def _inertia_terms(k: int, body: Any, e: np.ndarray, mass: Expr, offset: Vec,
                    make: _Maker) -> Mat:
     matrix = inertia_matrix(body.inertia)
     rod = body.mass * body.length**2 / 12.0 * (np.eye(3) - np.outer(e, e))
@@ -183,16 +170,16 @@ def _inertia_terms(name: str, k: int, body: Any, e: np.ndarray, mass: Expr, offs
         return [[scale * make.engine.number(eye[r][c]) for c in range(3)] for r in range(3)]
     out = [[make.engine.zero] * 3 for _ in range(3)]
     for r, c, axes in _INERTIA_KEYS:
-        out[r][c] = out[c][r] = make("inertia", f"I{k}{axes}", matrix[r, c],
-                                     f"{name} body inertia {axes}, kg m^2")
+        out[r][c] = out[c][r] = make("inertia", f"I{k}{axes}", matrix[r, c])
     return out
 
 
 def structure_key(spec: ManipulatorSpec) -> str:
-    """A digest of everything the slot-mode equations depend on (not the non-zero values).
+    """A digest of everything the compiled kernels depend on (not the non-zero values).
 
     Two specs with the same digest share one generated kernel: axes, joint types, and which
-    parameter values are exactly zero.
+    parameter values are exactly zero (what decides the slots of
+    :func:`~maniplab.model.inertial.inertial_parameters`).
     """
     def nz(values: Iterable[float]) -> list[int]:
         return [int(float(v) != 0.0) for v in values]
