@@ -212,6 +212,14 @@ def test_simulate_answers_ctrl_c(job, tmp_path: Path) -> None:
     assert_interrupted(j, "simulate", output)
 
 
+def test_a_streamed_simulate_answers_ctrl_c_and_leaves_no_file(job, tmp_path: Path) -> None:
+    output = tmp_path / "run.npz"
+    j = job(maniplab("simulate", "erector", "--duration", "100", "--dt", "1e-4", "--stream",
+                     "-o", str(output)))
+    j.wait_for(lambda: "simulating erector" in j.stderr, "the simulation runs")
+    assert_interrupted(j, "simulate", output)
+
+
 def test_a_sweep_in_threads_answers_ctrl_c(job, tmp_path: Path) -> None:
     """The variants run in threads, which the signal does not reach; they stop at their pause."""
     output = tmp_path / "sweep"
@@ -275,7 +283,8 @@ def test_render_answers_ctrl_c_while_ffmpeg_encodes(job, tmp_path: Path) -> None
 
 
 def big_arm(path: Path, n: int) -> Path:
-    """An n-joint arm of tilted links with full inertia: a long C file to compile (n = 9: ~1 min)."""
+    """An n-joint arm of tilted links with full inertia: C files that take a while to compile
+    (n = 20: about 10 s on 2 cores)."""
     joints = "".join(
         f"  - {{type: R, axis: {'xyz'[k % 3]}, body: {{length: 0.5, mass: 10.0, "
         f"direction: {[0.6, 0.0, 0.8] if k % 2 else [0.0, 0.8, 0.6]}, com: [0.1, 0.05, 0.02], "
@@ -289,10 +298,10 @@ def test_crossval_answers_ctrl_c_while_the_model_compiles(job, tmp_path: Path) -
     no half-built staging folder left."""
     cache = tmp_path / "cache"
     output = tmp_path / "crossval.png"
-    arm = big_arm(tmp_path / "big.yaml", 9)
+    arm = big_arm(tmp_path / "big.yaml", 20)
     j = job(maniplab("crossval", str(arm), "--duration", "0.1", "-o", str(output)),
             env={"MANIPLAB_CACHE": str(cache)})
-    j.wait_for(lambda: j.child("_maniplab_"), "the model's C compiler runs")
+    j.wait_for(lambda: j.child("C.c"), "the compiler of the model's C kernel runs")
     assert_interrupted(j, "crossval", output)
     assert [p.name for p in cache.iterdir()] == ["plugins"]
 

@@ -141,6 +141,7 @@ def _build_entry(spec: ManipulatorSpec, backend: str, key: str, inputs: dict[str
     bar = Progress(2 + (backend == "c"), f"maniplab: generating the {spec.name} model", progress)
     stage: Path | None = None
     try:
+        bar.start(f"recording the recursive algorithms for {spec.n} joints")
         gen = generate(spec, bar)
         stage = cache.staging() if use_cache else Path(tempfile.mkdtemp(prefix="maniplab-"))
         _write_entry(gen, stage, backend, key, bar)
@@ -169,9 +170,12 @@ def _write_entry(gen: Generated, stage: Path, backend: str, key: str, bar: Progr
                                                                len(gen.params.values)))
         compiler = find_compiler()
         assert compiler is not None, "resolve_backend chooses 'c' only with a compiler"
-        bar.step(f"printed {len(sources)} C files")
-        objects = compile_objects(compiler, [*sources, wrapper], jobs=os.cpu_count() or 1,
-                                  extension=True)
+        bar.step(f"printed {len(sources) + 1} C files")
+        jobs = os.cpu_count() or 1
+        bar.start(f"compiling {len(sources) + 1} C files, {jobs} at a time")
+        # the longest first, so the cores stay busy to the end
+        files = sorted([*sources, wrapper], key=lambda f: -f.stat().st_size)
+        objects = compile_objects(compiler, files, jobs=jobs, extension=True)
         link_shared(compiler, objects, stage / f"{module}.so")
         for obj in objects:
             obj.unlink()

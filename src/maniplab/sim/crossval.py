@@ -2,7 +2,7 @@
 the MuJoCo plant, from the same spec, initial state and inputs, with ideal actuators.
 
 This is the evidence that the MJCF and the analytic model describe the same arm: they are built
-by independent code (mjcf_gen from MjSpec, model from sympy) and integrated by independent solvers.
+by independent code (mjcf_gen from MjSpec, the model's own recursive algorithms) and integrated by independent solvers.
 """
 
 from __future__ import annotations
@@ -18,6 +18,7 @@ from scipy.integrate import solve_ivp
 from maniplab.actuators.registry import IDEAL_SOURCE
 from maniplab.errors import ManiplabError
 from maniplab.model import AnalyticModel
+from maniplab.progress import Progress
 from maniplab.sim.errors import InputError
 from maniplab.sim.run import Run
 from maniplab.spec import ManipulatorSpec
@@ -42,7 +43,8 @@ def ideal(spec: ManipulatorSpec) -> ManipulatorSpec:
 
 def integrate_analytic(spec: ManipulatorSpec, inputs: Mapping[str, Signal], t: np.ndarray, *,
                        q0: np.ndarray | None = None, hold: float | None = None,
-                       method: str = "DOP853", rtol: float = 1e-10, atol: float = 1e-12) -> Run:
+                       method: str = "DOP853", rtol: float = 1e-10, atol: float = 1e-12,
+                       progress: bool | None = None) -> Run:
     """Integrate M(q) q̈ + C q̇ + G = τ(t) with ``scipy.integrate.solve_ivp``.
 
     Args:
@@ -56,6 +58,7 @@ def integrate_analytic(spec: ManipulatorSpec, inputs: Mapping[str, Signal], t: n
         method: solve_ivp's method, one of :data:`SOLVERS`.
         rtol: solve_ivp's relative tolerance.
         atol: solve_ivp's absolute tolerance.
+        progress: show progress (None: a bar on a terminal, lines in a log when it lasts).
 
     Returns:
         A Run with q, qd (shape (N, n)) and ee_pos (N, 3); meta records the solver.
@@ -66,7 +69,7 @@ def integrate_analytic(spec: ManipulatorSpec, inputs: Mapping[str, Signal], t: n
     solver = SOLVERS.get(method)
     if solver is None:
         raise InputError(f"unknown scipy solver {method!r}; expected one of {', '.join(SOLVERS)}")
-    model = AnalyticModel(spec)
+    model = AnalyticModel(spec, progress=progress)
     n = spec.n
     forces = [inputs.get(name) for name in spec.joint_names]
 
@@ -83,18 +86,24 @@ def integrate_analytic(spec: ManipulatorSpec, inputs: Mapping[str, Signal], t: n
     held = hold is not None and any(f is not None for f in forces)
     edges = _edges(t[0], t[-1], hold if held else None)
     states = []
-    for k, (start, stop) in enumerate(itertools.pairwise(edges)):
-        sol = solve_ivp(rhs, (start, stop), x, method=solver, rtol=rtol, atol=atol,
-                        args=(tau(start) if held else None,), dense_output=True)
-        if not sol.success:
-            raise ManiplabError(f"scipy {method} failed on the analytic model of {spec.name} "
-                                f"at t = {start:.4g} s: {sol.message}")
-        last = k == len(edges) - 2
-        inside = t[(t >= start - 1e-12) & ((t < stop - 1e-12) | last)]
-        if inside.size:
-            assert sol.sol is not None, "solve_ivp gives the dense solution with dense_output"
-            states.append(sol.sol(inside))
-        x = sol.y[:, -1]
+    bar = Progress(len(edges) - 1, f"crossval {spec.name}: scipy {method} on the analytic model",
+                   progress)
+    try:
+        for k, (start, stop) in enumerate(itertools.pairwise(edges)):
+            sol = solve_ivp(rhs, (start, stop), x, method=solver, rtol=rtol, atol=atol,
+                            args=(tau(start) if held else None,), dense_output=True)
+            if not sol.success:
+                raise ManiplabError(f"scipy {method} failed on the analytic model of {spec.name} "
+                                    f"at t = {start:.4g} s: {sol.message}")
+            last = k == len(edges) - 2
+            inside = t[(t >= start - 1e-12) & ((t < stop - 1e-12) | last)]
+            if inside.size:
+                assert sol.sol is not None, "solve_ivp gives the dense solution with dense_output"
+                states.append(sol.sol(inside))
+            x = sol.y[:, -1]
+            bar.step(f"t = {stop:.4g} s")
+    finally:
+        bar.close()
     y = np.hstack(states)
     q, qd = y[:n].T, y[n:].T
     ee = model.fk(q)[:, :3, 3]
