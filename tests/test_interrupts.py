@@ -306,6 +306,13 @@ def test_crossval_answers_ctrl_c_while_the_model_compiles(job, tmp_path: Path) -
     assert [p.name for p in cache.iterdir()] == ["plugins"]
 
 
+def test_crossval_answers_ctrl_c_while_scipy_integrates(job, tmp_path: Path) -> None:
+    output = tmp_path / "crossval.png"
+    j = job(maniplab("crossval", "erector", "--duration", "100", "-o", str(output)))
+    j.wait_for(lambda: "scipy DOP853 on the analytic model" in j.stderr, "scipy integrates")
+    assert_interrupted(j, "crossval", output)
+
+
 def test_demo_answers_ctrl_c_and_leaves_no_folder(job, tmp_path: Path) -> None:
     output = tmp_path / "demo"
     j = job(maniplab("demo", "--quick", "-o", str(output)))

@@ -187,7 +187,7 @@ def structure_key(spec: ManipulatorSpec) -> str:
     rows: list[Any] = []
     for joint in spec.joints:
         body = joint.body
-        row: list[Any] = [joint.type.value, joint.axis.value, nz([joint.friction.viscous])]
+        row: list[Any] = [joint.type.value, joint.axis.value]
         if body is not None:
             # Body.__post_init__ fills in a com and an inertia that were not given
             assert body.com is not None and body.inertia is not None
