@@ -26,6 +26,7 @@ from maniplab.model.errors import ModelArgumentError
 from maniplab.model.parameters import arm_terms
 from maniplab.model.tape import c_function, python_function
 from maniplab.model.version import package_version
+from maniplab.progress import Progress
 from maniplab.spec import ManipulatorSpec, model_of
 
 FORMATS = ("latex", "markdown", "python", "c")
@@ -71,24 +72,41 @@ class Readable:
 
 
 def readable(spec: ManipulatorSpec, symbolic: tuple[str, ...]) -> Readable:
-    """The readable form: simplified entries for a small arm, cse form for a larger one."""
-    engine = get_engine("auto")
-    terms = arm_terms(spec, engine, symbolic=symbolic)
-    n = spec.n
-    q = [engine.symbol(f"q{i + 1}") for i in range(n)]
-    qd = [engine.symbol(f"qd{i + 1}") for i in range(n)]
-    _, dyn = derive(spec, terms, q, qd, engine)
-    keys = ([("M", f"M_{{{i + 1}{j + 1}}}", dyn.M[i][j]) for i in range(n) for j in range(i, n)]
-            + [("C", f"C_{{{i + 1}{j + 1}}}", dyn.C[i][j]) for i in range(n) for j in range(n)]
-            + [("G", f"G_{{{i + 1}}}", dyn.G[i]) for i in range(n)])
-    exprs = [sympy.sympify(e) for _, _, e in keys]
-    doc = Readable()
-    if sum(sympy.count_ops(e) for e in exprs) <= SIMPLIFY_LIMIT:
-        exprs = [sympy.factor_terms(sympy.trigsimp(sympy.expand(e))) for e in exprs]
-        doc.simplified = True
-    else:
-        temps, reduced = sympy.cse(exprs, symbols=sympy.numbered_symbols("x"), optimizations=None)
-        doc.temps, exprs = temps, reduced
+    """The readable form: simplified entries for a small arm, cse form for a larger one.
+
+    The Lagrangian derivation grows fast with the arm (a minute at 8 joints): its stages show
+    progress (a bar on a terminal, lines in a log) and answer Ctrl-C.
+    """
+    bar = Progress(3, f"maniplab: deriving the readable model of {spec.name}")
+    try:
+        bar.start(f"deriving M, C, G of {spec.n} joints (Lagrange)")
+        engine = get_engine("auto")
+        terms = arm_terms(spec, engine, symbolic=symbolic)
+        n = spec.n
+        q = [engine.symbol(f"q{i + 1}") for i in range(n)]
+        qd = [engine.symbol(f"qd{i + 1}") for i in range(n)]
+        _, dyn = derive(spec, terms, q, qd, engine)
+        keys = ([("M", f"M_{{{i + 1}{j + 1}}}", dyn.M[i][j]) for i in range(n) for j in range(i, n)]
+                + [("C", f"C_{{{i + 1}{j + 1}}}", dyn.C[i][j]) for i in range(n) for j in range(n)]
+                + [("G", f"G_{{{i + 1}}}", dyn.G[i]) for i in range(n)])
+        small = _at_most(engine, [e for _, _, e in keys], SIMPLIFY_LIMIT)
+        bar.step("derived")
+        bar.start("converting to sympy")
+        exprs = [sympy.sympify(e) for _, _, e in keys]
+        bar.step("converted")
+        doc = Readable()
+        if small:
+            bar.start("simplifying")
+            exprs = [sympy.factor_terms(sympy.trigsimp(sympy.expand(e))) for e in exprs]
+            doc.simplified = True
+        else:
+            bar.start("eliminating common subexpressions")
+            temps, reduced = sympy.cse(exprs, symbols=sympy.numbered_symbols("x"),
+                                       optimizations=None)
+            doc.temps, exprs = temps, reduced
+        bar.step("done")
+    finally:
+        bar.close()
     for (group, label, _), e in zip(keys, exprs):
         doc.entries[group].append((label, e))
     doc.entries["Fv"] = [(f"F_{{v,{i + 1}}}", sympy.sympify(terms.viscous[i])) for i in range(n)]
@@ -97,6 +115,16 @@ def readable(spec: ManipulatorSpec, symbolic: tuple[str, ...]) -> Readable:
     doc.parameters = [(doc.names[sympy.Symbol(str(s))], v, _meaning(str(s), spec))
                       for s, v in terms.symbols.items()]
     return doc
+
+
+def _at_most(engine: Any, exprs: list[Any], limit: int) -> bool:
+    """Whether the expressions have at most ``limit`` operations in all (stops counting early)."""
+    total = 0
+    for e in exprs:
+        total += int(engine.module.count_ops(e))
+        if total > limit:
+            return False
+    return True
 
 
 def _names(n: int, params: dict[Any, float]) -> dict[Any, str]:
