@@ -82,7 +82,7 @@ def main() -> None:
     def row(what: str, value: str, note: str = "") -> None:
         rows.append((what, value, note))
 
-    AnalyticModel(spec, backend="python", cache=False)  # imports (symengine...) out of the timings
+    AnalyticModel(spec, backend="python", cache=False)  # imports out of the timings
     gen_c = cold_generation(spec, "c")
     gen_py = cold_generation(spec, "python")
     row("cold generation, C backend (empty cache)", f"{gen_c:.2f} s", "target <= 3 s")
@@ -162,11 +162,11 @@ def main() -> None:
         row(f"Python loop over Pinocchio rnea, {BATCH} states", f"{t_loop * 1e3:.0f} ns/state",
             f"batch C is {t_loop / t_batch:.1f}x faster per state")
 
-    ops = {ck.kernel.name: ck.ops for ck in build.generate(spec).kernels}
+    ops = {k.name: k.ops for k in build.generate(spec).kernels}
     print(f"# maniplab analytic model, {SPEC} ({n} DOF), Python {sys.version.split()[0]}, "
           f"numpy {np.__version__}, mujoco {mujoco.__version__}"
           + (f", pinocchio {pin.__version__}" if pin else ", pinocchio not installed"))
-    print(f"# operations after cse: {ops}\n")
+    print(f"# operations recorded per kernel: {ops}\n")
     width = max(len(r[0]) for r in rows)
     print(f"| {'what':<{width}} | median | note |\n|{'-' * (width + 2)}|---|---|")
     for what, value, note in rows:

@@ -71,3 +71,34 @@ def test_crossval_prints_a_tiny_deviation(capsys, tmp_path: Path) -> None:
 def test_runs_of_a_missing_folder_is_one_line(capsys, tmp_path: Path) -> None:
     code, _, err = run_cli(capsys, "runs", str(tmp_path / "nope"))
     assert code == 2 and "not a folder" in err
+
+
+RECORDING = {"simulate": ["planar2", "--duration", "0.1"],
+             "sweep": ["planar2", "--vary", "end_effector.mass=1,2", "--duration", "0.1"],
+             "control": ["planar2", "--target", "1,0,1", "--duration", "1"]}
+"""Every command that records a run, with its required arguments."""
+
+
+@pytest.mark.parametrize("command", sorted(RECORDING))
+@pytest.mark.parametrize(("value", "words"), [("0", "positive number of seconds, got 0"),
+                                              ("-0.1", "got -0.1"), ("nan", "got nan"),
+                                              ("1e400", "got 1e400"),
+                                              ("fast", "'fast' is not a number of seconds")])
+def test_bad_sample_dt_is_one_line_naming_the_option(capsys, tmp_path: Path, command: str,
+                                                     value: str, words: str) -> None:
+    out = tmp_path / "out"
+    code, _, err = run_cli(capsys, command, *RECORDING[command], f"--sample-dt={value}",
+                           "-o", str(out))
+    assert code == 2 and len(err.strip().splitlines()) == 1
+    assert err.startswith(f"maniplab {command}: error: argument --sample-dt: ") and words in err
+    assert not out.exists()
+
+
+def test_sweep_records_at_the_sample_dt(capsys, tmp_path: Path) -> None:
+    code, _, err = run_cli(capsys, *["sweep", *RECORDING["sweep"]], "--sample-dt", "0.02",
+                           "--processes", "1", "-o", str(tmp_path / "sw"))
+    assert code == 0, err
+    runs = [ml.Run.load(path) for path in sorted((tmp_path / "sw").glob("*.npz"))]
+    assert len(runs) == 2
+    for run in runs:
+        np.testing.assert_allclose(run.t, np.arange(6) * 0.02, atol=1e-12)  # 0, 0.02, ..., 0.1

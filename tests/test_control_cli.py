@@ -73,3 +73,16 @@ def test_plan_move_checks_joint_limits() -> None:
                                                                     rel=0.05)
     assert "joint telescope" in str(plan.note())
     assert parse_numbers(" 1, -2.5 ,3e-1", "x", (3,)) == [1.0, -2.5, 0.3]
+
+
+def test_control_command_records_at_the_sample_dt(tmp_path: Path,
+                                                  capsys: pytest.CaptureFixture) -> None:
+    code = main(["control", "crane3", "--target", "5.46,0.6,1.4", "--start", "0,0,0.5",
+                 "--duration", "2", "--settle", "0.5", "--sample-dt", "0.01",
+                 "-o", str(tmp_path)])
+    capsys.readouterr()
+    assert code == 0
+    run = ml.Run.load(tmp_path / "control.npz")
+    assert run.meta["sample_dt"] == pytest.approx(0.01)
+    np.testing.assert_allclose(np.diff(run.t), 0.01, atol=1e-12)
+    assert len(run["x_d"]) == len(run.t) == round(run.t[-1] / 0.01) + 1  # the log resampled too

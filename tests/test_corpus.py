@@ -3,7 +3,8 @@ settings (gains and rate derived from each arm, moves checked against its actuat
 
 Feasible moves end within 2 mm and track within 5 mm RMS, with no pressure above a relief's
 setting; infeasible ones (out of reach, too fast with --fit refuse) exit non-zero with one line.
-The PID-only baseline, tuned by the same rule, stays stable with no pressure beyond supply."""
+The PID-only baseline, tuned by the same rule, stays stable with no pressure beyond supply, except
+where it is known not to (UNSTABLE_BASELINE), and there the run's health must say so."""
 
 from __future__ import annotations
 
@@ -73,11 +74,24 @@ def test_the_cascade_meets_the_tolerances_on_every_arm(name: str) -> None:
         assert np.all(pressure <= 1.01 * relief(spec)), name
 
 
+UNSTABLE_BASELINE = {
+    # The PID-only baseline sees a redundant arm only through J⁺ of the task error, so a joint
+    # its load drives (q3's cylinder, overrun up to its relief) drifts in the null space unseen
+    # and q2 and q3 wind against each other. (Before the path IK took the least joint motion,
+    # a path that swung q6 back and forth stretched this move to 9.2 s and hid it.)
+    "erector-pinned": "the loop is unstable",
+}
+
+
 @pytest.mark.parametrize("name", MOVES)
 def test_the_pid_baseline_is_stable_with_no_pressure_beyond_supply(name: str) -> None:
     spec, start, target, duration = case(name)
     result = run_move(spec, target, start=start, duration=duration, mode="pid")
     health = result.health
+    if name in UNSTABLE_BASELINE:  # a known limit of the baseline: the run must say so
+        assert health.verdict == "failed", health.lines()
+        assert any(UNSTABLE_BASELINE[name] in line for line in health.lines()), health.lines()
+        return
     assert health.verdict != "failed", health.lines()
     assert not any(f.check == "bounds" for f in health.findings), health.lines()
     for pressure in pressures(result.run):

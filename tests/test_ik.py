@@ -77,3 +77,29 @@ def test_the_erector_reaches_a_target_that_wound_a_joint_beyond_its_limits() -> 
     assert np.all(plan.q_goal >= low) and np.all(plan.q_goal <= high)
     model = ml.AnalyticModel(spec)
     assert np.linalg.norm(model.fk(plan.q_goal)[:3, 3] - [3.3, 0.5, 0.1]) < 1e-4
+
+
+@pytest.mark.parametrize("name", ["erector", "erector_pinned", str(ARMS / "erector7.yaml")])
+def test_a_redundant_arm_follows_a_path_with_the_least_joint_motion(name: str) -> None:
+    """The path IK of an arm with more joints than the task has rows follows the minimum-norm
+    motion: the joint path of q̇ = J⁺ ẋ integrated in small steps (an independent reference, from
+    the start of the path), not wherever the solver's iterations drift in the null space."""
+    from maniplab.control.feasibility import JointPath
+    from maniplab.control.trajectory import MinJerkMove
+
+    spec = ml.resolve_spec(name)
+    model = ml.AnalyticModel(spec)
+    q0 = np.array([-0.18, 1.27, 0.0, 0.0, 0.0, 0.0, 0.0][:spec.n])
+    start = Pose.from_matrix(model.fk(q0))
+    goal = Pose(start.position + np.array([0.4, -0.6, 0.05]), start.rotation)
+    path = JointPath.of(model, start, goal, q0, "position")
+    move, q, steps = MinJerkMove(start, goal, 1.0), q0.copy(), 4000
+    reference = [q0.copy()]
+    for k in range(steps):  # midpoint rule on the minimum-norm velocity
+        t = (k + 0.5) / steps
+        x_dot = (move.sample(t + 0.5 / steps).position - move.sample(t - 0.5 / steps).position)
+        mid = q + 0.5 * np.linalg.pinv(model.jacobian(q)[:3]) @ x_dot
+        q = q + np.linalg.pinv(model.jacobian(mid)[:3]) @ x_dot
+        reference.append(q.copy())
+    at = np.round(path.tau * steps).astype(int)
+    np.testing.assert_allclose(path.q, np.array(reference)[at], atol=2e-3)

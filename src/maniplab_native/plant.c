@@ -629,7 +629,7 @@ static int run(ml_plant* p, ml_run* r) {
   int n = p->n, taken = 0;
   double* u = p->command;
   for (; r->k <= r->steps; r->k++) {
-    int k = r->k;
+    int64_t k = r->k;
     double t = r->t0 + k * r->dt;
     if (r->max_steps && taken >= r->max_steps) return ML_PAUSED;
     if (r->controller && k < r->steps && t >= r->next_call - 1e-9 * r->dt) {
@@ -639,8 +639,9 @@ static int run(ml_plant* p, ml_run* r) {
       }
       r->next_call = r->period > 0.0 ? r->next_call + r->period : t;
     }
+    const double* in = r->inputs ? r->inputs + (size_t)(k - r->inputs_k0) * n : NULL;
     for (int j = 0; j < n; j++) {
-      u[j] = r->inputs ? r->held[j] + r->inputs[(size_t)k * n + j] : r->held[j];
+      u[j] = in ? r->held[j] + in[j] : r->held[j];
       if (!isfinite(u[j])) {
         fail(p, ML_BAD_COMMAND, j, -1);
         p->error.time = t;

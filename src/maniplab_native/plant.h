@@ -18,6 +18,8 @@
 #ifndef MANIPLAB_PLANT_H_
 #define MANIPLAB_PLANT_H_
 
+#include <stdint.h>
+
 #include <mujoco/mujoco.h>
 
 /* Friction/limit modes of a joint (maniplab.friction.FrictionMode). */
@@ -72,26 +74,30 @@ typedef struct {
 typedef struct ml_plant ml_plant;
 
 /* A run of `steps` steps from the plant's current state: samples k = 0..steps at t0 + k dt, the
-   last one prepared but not advanced. Sample k's command is held + inputs[k] (the controller's
-   held command plus the open-loop inputs); the controller is called before sample k when
-   k < steps and t >= next_call - 1e-9 dt, then next_call += period (period 0: every step).
+   last one prepared but not advanced. Sample k's command is held + inputs[k - inputs_k0] (the
+   controller's held command plus the open-loop inputs); the controller is called before sample k
+   when k < steps and t >= next_call - 1e-9 dt, then next_call += period (period 0: every step).
    Rows are recorded at samples with k % every == 0 and at k == steps: the state at the step's
    start (q, qd after the step's stick resets, act), the clipped command, the modes, and the
    friction and limit forces of the step (the last row: the last step's), and the position of
-   body ee_body (from the step's forward pass). */
+   body ee_body (from the step's forward pass). A row is written whole within one call, at index
+   `rows` of the buffers; while the run is paused the caller may take the rows written, set
+   `rows` back to 0 and move the inputs' window (inputs, inputs_k0), so that a run of any length
+   is recorded through buffers of max_steps / every + 2 rows and inputs of max_steps + 1 rows. */
 typedef struct {
-  int steps;
+  int64_t steps;           /* 64 bits: a run may be longer than 2^31 steps */
   double t0, dt;
-  int k;                   /* in/out: the next sample; 0 to start */
+  int64_t k;               /* in/out: the next sample; 0 to start */
   int max_steps;           /* pause (ML_PAUSED) after this many steps; 0: never */
-  const double* inputs;    /* (steps + 1, n), or NULL */
+  const double* inputs;    /* rows k - inputs_k0 (n each) for the samples k of this call, or NULL */
+  int64_t inputs_k0;       /* the sample of inputs' first row; 0 for a table of all steps + 1 */
   double* held;            /* (n): the controller's last commands (in/out) */
   ml_controller_fn controller; /* or NULL */
   void* controller_context;
   double period;
   double next_call;        /* in/out: t0 to start */
-  int every;
-  int rows;                /* in/out: rows written; 0 to start */
+  int64_t every;
+  int rows;                /* in/out: the buffers' next row (rows written); 0 to start */
   double* t;               /* (rows,) */
   double* q;               /* (rows, n) */
   double* qd;              /* (rows, n) */

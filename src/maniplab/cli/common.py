@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, NoReturn
@@ -33,6 +34,23 @@ def positive_int(text: str) -> int:
     if value < 1:
         raise argparse.ArgumentTypeError(f"{value} is not at least 1")
     return value
+
+
+def positive_seconds(text: str) -> float:
+    """argparse type: a finite time of more than 0 s (a recording interval, a step)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a number of seconds") from None
+    if not (math.isfinite(value) and value > 0.0):
+        raise argparse.ArgumentTypeError(f"must be a positive number of seconds, got {text}")
+    return value
+
+
+SAMPLE_DT_HELP = ("record one sample every S seconds (a multiple of the step; default: every "
+                  "step, at most 1000 samples/s): a run stores samples × bytes per sample, so "
+                  "a long run can record less")
+"""The help of ``--sample-dt`` (every command that records a run has it)."""
 
 
 def output_file(text: str) -> Path:

@@ -5,7 +5,13 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from maniplab.cli.common import EXIT_MISSED, output_folder, spec_argument
+from maniplab.cli.common import (
+    EXIT_MISSED,
+    SAMPLE_DT_HELP,
+    output_folder,
+    positive_seconds,
+    spec_argument,
+)
 
 
 def add(sub: argparse._SubParsersAction) -> None:
@@ -41,6 +47,7 @@ def add(sub: argparse._SubParsersAction) -> None:
                          help="cascade (feedback linearisation, default) or pid (PID only)")
     control.add_argument("--settle", type=float, default=1.0, metavar="S",
                          help="time simulated after the move, s (default: 1)")
+    control.add_argument("--sample-dt", type=positive_seconds, metavar="S", help=SAMPLE_DT_HELP)
     control.add_argument("--tolerance", default="2,5", metavar="FINAL,RMS",
                          help="the move's tolerances, mm: the final position error and the RMS "
                               "error over the move (default: 2,5)")
@@ -68,7 +75,7 @@ def _cmd_control(args: argparse.Namespace) -> int:
     if not args.settle >= 0.0:
         raise ControlError(f"--settle must be >= 0 s, got {args.settle!r}")
     result = run_move(spec, target, start=start, duration=args.duration, mode=args.mode,
-                      fit_mode=args.fit, settle=args.settle)
+                      fit_mode=args.fit, settle=args.settle, sample_dt=args.sample_dt)
     note = result.plan.note()
     if note:
         print(f"maniplab control: {note}", file=sys.stderr)

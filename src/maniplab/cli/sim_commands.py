@@ -9,14 +9,21 @@ from typing import TYPE_CHECKING
 
 from maniplab.cli.common import (
     EXIT_MISSED,
+    SAMPLE_DT_HELP,
     output_file,
     output_folder,
     plugin_option,
     positive_int,
+    positive_seconds,
     spec_argument,
 )
 
 if TYPE_CHECKING:
+    from collections.abc import Iterable, Iterator
+
+    import numpy as np
+
+    from maniplab.sim.run import Run
     from maniplab.sim.signals import Signal
 
 _INPUT_HELP = ("JOINT=SIGNAL, repeatable: valve current (A) of a hydraulic joint, force (N) or "
@@ -41,6 +48,7 @@ def _run_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--duration", type=float, required=True, metavar="T",
                         help="simulated time, s")
     parser.add_argument("--dt", type=float, metavar="S", help="time step, s (default 1e-3)")
+    parser.add_argument("--sample-dt", type=positive_seconds, metavar="S", help=SAMPLE_DT_HELP)
     parser.add_argument("--balanced", action="store_true",
                         help="start with the pressures that hold the arm against gravity "
                              "(default: zero pressure, the arm settles on its cylinders)")
@@ -54,6 +62,10 @@ def _add_simulate(sub: argparse._SubParsersAction) -> None:
     spec_argument(p)
     _run_options(p)
     p.add_argument("--set", action="append", default=[], metavar="PATH=VALUE", help=_SET_HELP)
+    p.add_argument("--stream", action="store_true",
+                   help="write the samples to the run file as the run goes, in chunks, instead "
+                        "of keeping them in memory (for runs too long for the memory; the file "
+                        "appears complete when the run ends)")
     p.add_argument("-o", "--output", type=output_file, default=Path("out/run.npz"), metavar="FILE",
                    help="the run file to write (default: out/run.npz)")
     p.set_defaults(func=_cmd_simulate)
@@ -143,15 +155,45 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     run = ml.simulate(spec, inputs=_inputs(args.input), duration=args.duration, dt=args.dt,
                       overrides=overrides or None, initial=_initial(args),
-                      label=args.output.stem)
+                      label=args.output.stem, sample_dt=args.sample_dt,
+                      stream=args.output if args.stream else None)
     wall = time.perf_counter() - start
-    run.save(args.output)
-    pressures = [np.abs(run[name]) for name in ("dP", "pA", "pB") if name in run.signals]
-    peak = max((float(np.nanmax(p)) for p in pressures if np.isfinite(p).any()), default=0.0)
+    if not args.stream:
+        run.save(args.output)
+    peak = max((_peak(_blocks(run, name, args.output if args.stream else None))
+                for name in ("dP", "pA", "pB") if name in run.signals), default=0.0)
     print(f"wrote {args.output}: {run.spec.name}, {run.t[-1]:g} s simulated in {wall:.2f} s "
           f"({run.t[-1] / wall:.0f}x real time); final q = "
           f"{np.array2string(run.q[-1], precision=4)}; peak pressure = {peak / 1e6:.3g} MPa")
     return 0
+
+
+def _blocks(run: Run, name: str, streamed: Path | None,
+            rows: int = 1 << 16) -> Iterator[np.ndarray]:
+    """Signal ``name`` of ``run`` in blocks of ``rows`` samples: slices of the array in memory,
+    or, for a run streamed to the file ``streamed``, read from the file (its pages are not
+    mapped into the process: the run's memory stays bounded)."""
+    if streamed is not None:
+        from maniplab.sim import store
+
+        yield from store.blocks(streamed, name, rows)
+        return
+    values = run[name]
+    for start in range(0, len(values), rows):
+        yield values[start:start + rows]
+
+
+def _peak(blocks: Iterable[np.ndarray]) -> float:
+    """The largest finite |value| of a signal given in blocks, 0 when none is finite."""
+    import numpy as np
+
+    peak = 0.0
+    for block in blocks:
+        values = np.abs(block)
+        finite = values[np.isfinite(values)]
+        if finite.size:
+            peak = max(peak, float(finite.max()))
+    return peak
 
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
@@ -161,7 +203,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     grid = dict(parse_variation(text) for text in args.vary)
     runs = ml.sweep(args.spec, grid, out=args.output, inputs=_inputs(args.input),
                     duration=args.duration, processes=args.processes, dt=args.dt,
-                    initial=_initial(args))
+                    initial=_initial(args), sample_dt=args.sample_dt)
     print(runs.table())
     print(f"\n{len(runs)} runs in {args.output}" +
           (f", {len(runs.failures)} failed" if runs.failures else ""))

@@ -79,7 +79,8 @@ class JointPath:
         tau = np.linspace(0.0, 1.0, SAMPLES)
         q, current = [], np.asarray(q0, dtype=float)
         for t in tau:
-            found = solve(model, move.sample(float(t)), current, task=task, tol=1e-6, restarts=0)
+            found = solve(model, move.sample(float(t)), current, task=task, tol=1e-6, restarts=0,
+                          near=True)
             if not found.reached:
                 raise ControlError(
                     f"the straight path leaves the workspace {t:.0%} of the way (the closest "

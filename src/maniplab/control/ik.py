@@ -7,6 +7,12 @@ reached on the start's branch; if that solve misses, it starts again from poses 
 workspace, nearest first, and keeps the first that reaches the target (else the smallest miss).
 A target is out of reach only when no start reaches it: the miss then reported is the closest
 pose's, with the joints that end on a limit.
+
+When the arm has more joints than the task has rows, many poses reach the target and the solver
+would end wherever its iterations drift. Following a path (``near=True``), the first solve
+therefore also asks for the smallest change from the start (a small weight on q − q0), and a
+second, unweighted solve from there removes the miss that weight left: the path moves the joints
+as little as it can, sample after sample, whatever the rounding of the kinematics.
 """
 
 from __future__ import annotations
@@ -23,6 +29,9 @@ from maniplab.model import AnalyticModel
 
 RESTARTS = 24
 """Starts tried after the given pose when it does not reach the target."""
+
+NEAR_WEIGHT = 1e-3
+"""Weight of q − q0 (m/rad) in the first solve of ``near``: small beside a miss of the task."""
 
 SEED = 20051117
 """Fixed: the same target gives the same answer every time."""
@@ -53,7 +62,7 @@ def bounds_of(model: AnalyticModel) -> tuple[np.ndarray, np.ndarray]:
 
 
 def solve(model: AnalyticModel, pose: Any, q0: ArrayLike, *, task: str = "pose",
-          tol: float = 1e-9, restarts: int = RESTARTS) -> IKSolution:
+          tol: float = 1e-9, restarts: int = RESTARTS, near: bool = False) -> IKSolution:
     """Joint positions within the limits that put the end-effector at ``pose``.
 
     Args:
@@ -63,6 +72,8 @@ def solve(model: AnalyticModel, pose: Any, q0: ArrayLike, *, task: str = "pose",
         task: "position" (3 rows) or "pose" (6).
         tol: the largest miss that counts as reaching the target, m (and rad).
         restarts: further starts when the first does not reach it.
+        near: of the poses that reach the target, find the one nearest the start (module
+            docstring): for following a path.
 
     Returns:
         The first solution that reaches the target, else the one that comes closest.
@@ -77,11 +88,25 @@ def solve(model: AnalyticModel, pose: Any, q0: ArrayLike, *, task: str = "pose",
     def jacobian(q: np.ndarray) -> np.ndarray:
         return -model.jacobian(q)[rows]  # exact for the position, to first order the rotation
 
+    def solve_from(start: np.ndarray) -> np.ndarray:
+        if near:
+            anchor, eye = start, NEAR_WEIGHT * np.eye(len(start))
+
+            def weighted(q: np.ndarray) -> np.ndarray:
+                return np.concatenate([residual(q), NEAR_WEIGHT * (q - anchor)])
+
+            def weighted_jacobian(q: np.ndarray) -> np.ndarray:
+                return np.vstack([jacobian(q), eye])
+
+            start = least_squares(weighted, start, jac=weighted_jacobian, bounds=(lower, upper),
+                                  method="trf", xtol=1e-15, ftol=1e-15, gtol=1e-15,
+                                  max_nfev=100).x
+        return least_squares(residual, start, jac=jacobian, bounds=(lower, upper), method="trf",
+                             xtol=1e-15, ftol=1e-15, gtol=1e-15, max_nfev=100).x
+
     best = None
     for start in _starts(np.asarray(q0, dtype=float), lower, upper, restarts):
-        found = least_squares(residual, start, jac=jacobian, bounds=(lower, upper), method="trf",
-                              xtol=1e-15, ftol=1e-15, gtol=1e-15, max_nfev=100)
-        q = np.clip(found.x, lower, upper)
+        q = np.clip(solve_from(start), lower, upper)
         miss = float(np.linalg.norm(residual(q)))
         if best is None or miss < best[1]:
             best = (q, miss)

@@ -59,7 +59,8 @@ class MoveResult:
 
 def run_move(spec: ManipulatorSpec, target: Sequence[float], *, start: Sequence[float] | None,
              duration: float, mode: str = "cascade", fit_mode: str = "stretch",
-             settle: float = 1.0, model: AnalyticModel | None = None) -> MoveResult:
+             settle: float = 1.0, model: AnalyticModel | None = None,
+             sample_dt: float | None = None) -> MoveResult:
     """Plan a move to ``target`` (:func:`~maniplab.control.point_to_point.plan_move`), run it
     from rest with the actuators holding the arm against gravity, and measure it.
 
@@ -69,11 +70,13 @@ def run_move(spec: ManipulatorSpec, target: Sequence[float], *, start: Sequence[
         mode: "cascade" or "pid" (the PID-only baseline).
         settle: time simulated after the move, s.
         model: the arm's analytic model.
+        sample_dt: the run's recording interval, s (default: every step, as ``simulate``).
     """
     model = model or AnalyticModel(spec)
     plan = plan_move(spec, target, start=start, duration=duration, model=model, fit_mode=fit_mode)
     controller = CascadeController(spec, plan.move, mode=mode, task=plan.task, model=model)
     label = f"{mode}, {plan.task} task"
     run = simulate(spec, controller=controller, duration=plan.move.t0 + plan.move.duration + settle,
-                   initial={"q": plan.q_start, "dP": "gravity"}, label=label)
+                   initial={"q": plan.q_start, "dP": "gravity"}, label=label,
+                   sample_dt=sample_dt)
     return MoveResult(plan, run, tracking_metrics(run, plan.move, label=label, model=model))

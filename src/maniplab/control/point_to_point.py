@@ -121,7 +121,7 @@ def plan_move(spec: ManipulatorSpec, target: Sequence[float], *, start: Sequence
     start_pose = Pose.from_matrix(model.fk(q0))
     goal = Pose.from_xyzrpy(target) if task == "pose" else Pose(np.asarray(target[:3], float),
                                                                 start_pose.rotation)
-    found = solve(model, goal, q0, task=task, tol=tol)
+    found = solve(model, goal, q0, task=task, tol=tol, near=True)
     if not found.reached:
         unit = "m" if task == "position" else "(m and rad)"
         at = (f", with joint(s) {', '.join(found.at_limits)} at their limits"

@@ -10,7 +10,7 @@ ctypes trampolines take the GIL back.
 from __future__ import annotations
 
 import ctypes
-from ctypes import POINTER, c_double, c_int, c_void_p
+from ctypes import POINTER, c_double, c_int, c_int64, c_void_p
 from typing import Any
 
 from maniplab.clib import Functions
@@ -46,9 +46,10 @@ class RunStruct(ctypes.Structure):
     """``ml_run``."""
 
     _fields_ = [
-        ("steps", c_int), ("t0", c_double), ("dt", c_double), ("k", c_int), ("max_steps", c_int),
-        ("inputs", _D), ("held", _D), ("controller", c_void_p), ("controller_context", c_void_p),
-        ("period", c_double), ("next_call", c_double), ("every", c_int), ("rows", c_int),
+        ("steps", c_int64), ("t0", c_double), ("dt", c_double), ("k", c_int64),
+        ("max_steps", c_int), ("inputs", _D), ("inputs_k0", c_int64), ("held", _D),
+        ("controller", c_void_p), ("controller_context", c_void_p),
+        ("period", c_double), ("next_call", c_double), ("every", c_int64), ("rows", c_int),
         ("t", _D), ("q", _D), ("qd", _D), ("act", _D), ("ctrl", _D),
         ("mode", POINTER(ctypes.c_byte)), ("fric", _D), ("limit", _D), ("ee_body", c_int),
         ("ee_pos", _D),

@@ -105,6 +105,13 @@ class Run:
         store.save(self, Path(path))
 
     @classmethod
-    def load(cls, path: str | os.PathLike[str]) -> Run:
-        """Read a run written by :meth:`save`; raises RunFileError when it cannot."""
-        return store.load(Path(path), cls)
+    def load(cls, path: str | os.PathLike[str], *, mmap: bool = False) -> Run:
+        """Read a run written by :meth:`save` (or streamed by ``simulate(stream=...)``); raises
+        RunFileError when it cannot.
+
+        Args:
+            path: the run file (.npz).
+            mmap: memory-map the arrays instead of reading them (read-only; their pages are read
+                from the file when used, so a run larger than the memory can be looked at).
+        """
+        return store.load(Path(path), cls, mmap=mmap)

@@ -2,28 +2,32 @@
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import functools
 import json
 import math
+import os
 import platform
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from importlib.metadata import PackageNotFoundError, version
+from pathlib import Path
 from typing import Any
 
 import mujoco
 import numpy as np
 
-from maniplab.actuators.base import STANDARD_COMMANDS, STANDARD_STATES
+from maniplab.atomic import atomic_path, check_target
 from maniplab.builtin import resolve_spec
 from maniplab.mjcf_gen.names import END_EFFECTOR
 from maniplab.progress import Progress
-from maniplab.sim import native
+from maniplab.sim import budget, native, recorder, store
 from maniplab.sim.errors import InputError
 from maniplab.sim.plant import Plant, SpecLike, integrator_name
-from maniplab.sim.run import Run
+from maniplab.sim.run import UNITS, Run
 from maniplab.sim.signals import Signal, as_signal
 from maniplab.sim.state import PlantState
+from maniplab.sim.stream import RunWriter
 from maniplab.workers import check_cancelled
 
 Controller = Callable[[float, PlantState], Any]
@@ -39,7 +43,7 @@ def simulate(spec_or_plant: SpecLike | Plant, *, inputs: Mapping[str | int, Any]
              controller: Controller | None = None, duration: float, dt: float | None = None,
              overrides: Mapping[str, Any] | None = None, initial: Mapping[str, Any] | None = None,
              sample_dt: float | None = None, integrator: str | None = None, label: str | None = None,
-             progress: bool | None = None) -> Run:
+             progress: bool | None = None, stream: str | os.PathLike[str] | None = None) -> Run:
     """Simulate an arm and record its signals.
 
     Args:
@@ -61,11 +65,17 @@ def simulate(spec_or_plant: SpecLike | Plant, *, inputs: Mapping[str | int, Any]
             ``Q``, ``z``, plugin states; arrays (n,) or mappings joint -> value). ``"dP":
             "gravity"`` sets the pressures that hold the arm against gravity at the initial pose.
         sample_dt: recording interval, s (a multiple of dt; default every step, but at most
-            1000 samples per second).
+            1000 samples per second). A longer interval records less: the run's memory (or
+            file) is its samples × bytes per sample.
         integrator: see :class:`Plant` (default "RK4"; not with a Plant).
         label: a name for legends, stored in ``meta["label"]``.
         progress: show a progress bar on stderr (None: on a terminal, for runs of at least
             ``PROGRESS_STEPS`` steps).
+        stream: a run file (.npz) to write the samples to as the run goes, in chunks, instead
+            of keeping them in memory: memory stays bounded whatever the duration. The file
+            appears complete when the run ends (nothing under its name if the run fails or is
+            interrupted); the Run returned reads it memory-mapped. Not with a controller that
+            adds signals to the run (``annotate``).
 
     Returns:
         The Run: ``t`` (N,), signals ``q``, ``qd``, ``tau_act``, ``tau_fric``, ``tau_limit``,
@@ -75,7 +85,10 @@ def simulate(spec_or_plant: SpecLike | Plant, *, inputs: Mapping[str | int, Any]
         records the inputs, controller, overrides, initial state, dt, integrator and versions.
 
     Raises:
-        InputError: bad arguments (unknown joint, wrong shape, non-finite command...).
+        InputError: bad arguments (unknown joint, wrong shape, non-finite command...), or a run
+            whose samples would not fit in the memory available (or, streamed, on the disk):
+            refused before its first step, naming the size and the ``sample_dt`` that fits.
+        OutputError: ``stream`` names a device, fifo or folder.
         InstabilityError: the run went unstable (says when, on which joint).
         PluginError: an actuator plugin raised.
         SpecError: the spec or an override is invalid.
@@ -83,13 +96,35 @@ def simulate(spec_or_plant: SpecLike | Plant, *, inputs: Mapping[str | int, Any]
     plant = _plant(spec_or_plant, dt=dt, overrides=overrides, integrator=integrator)
     if not (isinstance(duration, (int, float)) and math.isfinite(duration) and duration > 0.0):
         raise InputError(f"duration must be a positive number of seconds, got {duration!r}")
-    if initial:
-        _set_initial(plant, initial)
     drive = _inputs(plant, inputs or {})
     steps = max(1, round(duration / plant.dt))
     every = _sample_every(plant.dt, sample_dt)
     period = _controller_period(controller)
-    loop = _Loop(plant, steps, every, drive, controller, period)
+    target = _stream_target(stream, controller)
+    signals = recorder.layout(plant)
+    rows = budget.rows_of(steps, min(every, steps))
+    _check_budget(plant, duration, every, signals, rows, target)  # before a given plant changes
+    if initial:
+        _set_initial(plant, initial)
+    with _recording(target, signals, rows) as sink:
+        loop = _Loop(plant, steps, every, drive, controller, period, sink)
+        _go(loop, plant, steps, progress)
+        meta = _meta(plant, inputs or {}, controller, period, overrides, initial, steps, every,
+                     label)
+        if isinstance(sink, RunWriter):
+            sink.finish(store.header_body(plant.spec, meta,
+                                          {k: UNITS[k] for k in signals if k in UNITS}))
+    if target is not None:
+        return store.load(target, Run, mmap=True, verify=False)
+    assert isinstance(sink, recorder.Arrays) and sink.complete()
+    run = Run(t=sink.t, signals=sink.signals, spec=plant.spec, meta=meta)
+    # a controller that logs its own signals adds them (any controller with annotate(run) -> Run)
+    annotate = getattr(controller, "annotate", None)
+    return annotate(run) if callable(annotate) else run
+
+
+def _go(loop: _Loop, plant: Plant, steps: int, progress: bool | None) -> None:
+    """Run ``loop`` to its end, with a progress bar (see ``simulate``'s ``progress``)."""
     bar = Progress(math.ceil(steps / loop.CHUNK), f"simulating {plant.spec.name}",
                    enabled=progress if progress is not None else
                    (None if steps >= PROGRESS_STEPS else False))
@@ -99,11 +134,50 @@ def simulate(spec_or_plant: SpecLike | Plant, *, inputs: Mapping[str | int, Any]
             bar.step(f"t = {plant.t:.3g} s")
     finally:
         bar.close()
-    meta = _meta(plant, inputs or {}, controller, period, overrides, initial, steps, every, label)
-    run = Run(t=loop.times(), signals=loop.signals(), spec=plant.spec, meta=meta)
-    # a controller that logs its own signals adds them (any controller with annotate(run) -> Run)
-    annotate = getattr(controller, "annotate", None)
-    return annotate(run) if callable(annotate) else run
+
+
+def _stream_target(stream: str | os.PathLike[str] | None,
+                   controller: Controller | None) -> Path | None:
+    """The run file of ``stream=``, checked before the run (None: record in memory)."""
+    if stream is None:
+        return None
+    if not isinstance(stream, (str, os.PathLike)) or not str(stream):
+        raise InputError(f"stream must be the path of a run file (.npz), got {stream!r}")
+    if callable(getattr(controller, "annotate", None)):
+        raise InputError("stream=: the controller adds its own signals to the run (annotate), "
+                         "which needs the run in memory; record less with sample_dt= instead")
+    check_target(stream)
+    return Path(stream)
+
+
+def _check_budget(plant: Plant, duration: float, every: int, signals: recorder.Layout,
+                  rows: int, target: Path | None) -> None:
+    """Refuse, before the first step, a run whose samples fit neither in memory nor (streamed) on
+    the disk (:mod:`~maniplab.sim.budget`)."""
+    per_sample = recorder.bytes_per_sample(signals)
+    if target is None:
+        budget.check_memory(rows * per_sample, duration=duration, dt=plant.dt, every=every,
+                            bytes_per_sample=per_sample,
+                            overhead=recorder.overhead(plant, per_sample))
+    else:
+        budget.check_disk(rows * per_sample, target, duration=duration, dt=plant.dt, every=every,
+                          bytes_per_sample=per_sample)
+
+
+@contextlib.contextmanager
+def _recording(target: Path | None, signals: recorder.Layout,
+               rows: int) -> Iterator[recorder.Arrays | RunWriter]:
+    """Where the samples go: arrays in memory, or (``target``) a run file written through a
+    temporary file that becomes ``target`` only when the block completes."""
+    if target is None:
+        yield recorder.Arrays(signals, rows)
+        return
+    with atomic_path(target) as tmp:
+        writer = RunWriter(tmp, signals, rows)
+        try:
+            yield writer
+        finally:
+            writer.close()
 
 
 def _plant(spec_or_plant: SpecLike | Plant, *, dt: float | None, overrides: Any,
@@ -210,42 +284,32 @@ class _Loop:
     """One run of the plant in C (``ml_plant_run``): its inputs, controller and record buffers.
 
     The C loop pauses every ``CHUNK`` steps (:meth:`go` returns True), so that a progress bar
-    moves and Ctrl-C is answered; a controller written in Python is called back at its samples,
-    one that has a native form (``controller.native(plant, times)``) runs inside the loop.
+    moves and Ctrl-C is answered; at each pause the rows recorded go, as signals, to the sink and
+    the next chunk's inputs are sampled, so the loop's own memory is one chunk's, whatever the
+    run's length. A controller written in Python is called back at its samples, one that has a
+    native form (``controller.native(plant, times)``) runs inside the loop.
     """
 
-    CHUNK = 20_000
+    CHUNK = recorder.CHUNK
 
     def __init__(self, plant: Plant, steps: int, every: int, drive: list[tuple[int, Signal]],
-                 controller: Controller | None, period: float | None) -> None:
-        self.plant, n, na = plant, plant.n, plant.model.na
-        t0, dt = plant.t, plant.dt
-        self.table = None
-        if drive:
-            times = t0 + np.arange(steps + 1) * dt
-            self.table = np.zeros((steps + 1, n))
-            for j, signal in drive:
-                self.table[:, j] += signal.sample(times)
-        rows = steps // every + 2
-        self.buffers = {"t": np.zeros(rows), "q": np.zeros((rows, n)), "qd": np.zeros((rows, n)),
-                        "act": np.zeros((rows, max(na, 1))), "ctrl": np.zeros((rows, n)),
-                        "mode": np.zeros((rows, n), np.int8), "fric": np.zeros((rows, n)),
-                        "limit": np.zeros((rows, n)), "ee_pos": np.zeros((rows, 3))}
-        self.held = np.zeros(n)
+                 controller: Controller | None, period: float | None,
+                 sink: recorder.Sink) -> None:
+        self.plant, self.steps, self.drive, self.sink = plant, steps, drive, sink
+        self.t0, self.dt = t0, dt = plant.t, plant.dt
+        self.buffers = recorder.Buffers(plant.n, plant.model.na, self.CHUNK // every + 2)
+        self.table: np.ndarray | None = None  # the inputs of samples table_k0, table_k0 + 1, ...
+        self.table_k0 = 0
+        self.held = np.zeros(plant.n)
         self.error: BaseException | None = None
         self._native: Any = None
         function, context = self._controller(controller, steps, period)
-        b = self.buffers
         self.run = native.RunStruct(
-            steps=steps, t0=t0, dt=dt, k=0, max_steps=self.CHUNK,
-            inputs=None if self.table is None else native.pointer(self.table),
+            steps=steps, t0=t0, dt=dt, k=0, max_steps=self.CHUNK, inputs=None, inputs_k0=0,
             held=native.pointer(self.held), controller=function, controller_context=context,
-            period=period or 0.0, next_call=t0, every=every, rows=0,
-            t=native.pointer(b["t"]), q=native.pointer(b["q"]), qd=native.pointer(b["qd"]),
-            act=native.pointer(b["act"]), ctrl=native.pointer(b["ctrl"]),
-            mode=native.pointer(b["mode"], ctypes.c_byte), fric=native.pointer(b["fric"]),
-            limit=native.pointer(b["limit"]), ee_body=plant.model.body(END_EFFECTOR).id,
-            ee_pos=native.pointer(b["ee_pos"]))
+            period=period or 0.0, next_call=t0, every=min(every, steps), rows=0,
+            ee_body=plant.model.body(END_EFFECTOR).id)
+        self.buffers.bind(self.run)
 
     def _controller(self, controller: Controller | None, steps: int,
                     period: float | None) -> tuple[int | None, int | None]:
@@ -272,15 +336,36 @@ class _Loop:
             self.error = exc
             return 1
 
+    def _window(self) -> None:
+        """Sample the inputs of the samples the next call can reach: k to k + CHUNK."""
+        if not self.drive:
+            return
+        k0 = self.run.k
+        times = self.t0 + np.arange(k0, min(k0 + self.CHUNK, self.steps) + 1) * self.dt
+        table = np.zeros((len(times), self.plant.n))
+        for j, signal in self.drive:
+            table[:, j] += signal.sample(times)
+        self.table, self.table_k0 = table, k0
+        self.run.inputs, self.run.inputs_k0 = native.pointer(table), k0
+
+    def _take(self) -> None:
+        """Hand the rows recorded since the last pause to the sink; empty the buffers."""
+        raw = self.buffers.head(self.run.rows)
+        self.sink.put(raw["t"], recorder.derive(self.plant, raw))
+        self.run.rows = 0
+
     def go(self) -> bool:
         """Run on; True when the loop paused (call again), False when the run is done.
 
         Raises:
             InputError: a non-finite command (of the inputs or a controller).
             InstabilityError, PluginError: the plant's errors (:meth:`Plant.check`).
-            Any exception the Python controller raised.
+            Any exception the Python controller, an input signal or the sink raised.
         """
+        self._window()
         status = self.plant._c.run(self.run)
+        if status in (native.OK, native.PAUSED):
+            self._take()
         if status == native.PAUSED:
             return True
         if status == native.CONTROLLER_ERROR:
@@ -292,36 +377,12 @@ class _Loop:
                              f"{message or 'its command is not finite (NaN or infinity)'}")
         if status == native.BAD_COMMAND:
             k = self.run.k
-            u = self.held + (self.table[k] if self.table is not None else 0.0)
+            inputs = self.table[k - self.table_k0] if self.table is not None else 0.0
             t = self.plant._c.error().time
             raise InputError(f"non-finite command at t = {t:.6g} s: "
-                             f"{dict(zip(self.plant.joint_names, u.tolist()))}")
+                             f"{dict(zip(self.plant.joint_names, (self.held + inputs).tolist()))}")
         self.plant.check(status)
         return False
-
-    def times(self) -> np.ndarray:
-        return self.buffers["t"][: self.run.rows].copy()
-
-    def signals(self) -> dict[str, np.ndarray]:
-        p, rows = self.plant, self.run.rows
-        b = {k: v[:rows] for k, v in self.buffers.items()}
-        q, qd, ctrl = b["q"].copy(), b["qd"].copy(), b["ctrl"].copy()
-        act = b["act"][:, : p.model.na]
-        out: dict[str, np.ndarray] = {"q": q, "qd": qd}
-        nan = np.full((rows, p.n), np.nan)
-        out.update({name: nan.copy() for name in STANDARD_STATES})
-        out.update(p.layout.read(act))
-        out["ctrl"] = ctrl
-        for name in dict.fromkeys((*STANDARD_COMMANDS, *(a.command for a in p.actuators))):
-            mine = [a.command == name for a in p.actuators]
-            out[name] = np.where(mine, ctrl, np.nan)
-        out.update(p.actuator_outputs_at(q, act))
-        out["tau_act"] = p.actuator_forces_at(q, qd, act, ctrl)
-        out["tau_fric"] = b["fric"] - p.viscous * qd  # applied + viscous at t_k
-        out["tau_limit"] = b["limit"].copy()
-        out["mode"] = b["mode"].copy()
-        out["ee_pos"] = b["ee_pos"].copy()
-        return out
 
 
 def _meta(plant: Plant, inputs: Mapping[Any, Any], controller: Controller | None,

@@ -13,8 +13,10 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import struct
 import zipfile
 import zlib
+from collections.abc import Iterable, Iterator
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeVar
@@ -41,28 +43,55 @@ class RunFileError(ManiplabError):
     """A stored run cannot be read (missing, truncated, corrupt or from an unknown format)."""
 
 
+class ContentHash:
+    """The SHA-256 content hash of a run file, fed in its order: the header without its hash
+    entry, then the time vector and the signals sorted by name (:meth:`array`, each once).
+
+    Args:
+        header: the header (its ``hash`` entry, if any, is left out).
+    """
+
+    def __init__(self, header: dict[str, Any]) -> None:
+        self.digest = hashlib.sha256()
+        body = {k: v for k, v in header.items() if k != "hash"}
+        self.digest.update(json.dumps(body, sort_keys=True).encode())
+
+    def array(self, name: str, dtype: np.dtype, shape: tuple[int, ...],
+              chunks: Iterable[Any]) -> None:
+        """Add array ``name``: its dtype, shape and data, given as consecutive byte chunks (any
+        buffers: bytes, contiguous numpy arrays)."""
+        self.digest.update(f"{name}|{dtype.str}|{tuple(shape)}|".encode())
+        for chunk in chunks:
+            self.digest.update(chunk)
+
+    def hexdigest(self) -> str:
+        return self.digest.hexdigest()
+
+
 def content_hash(t: np.ndarray, signals: dict[str, np.ndarray], header: dict[str, Any]) -> str:
     """SHA-256 (hex) over the time vector, every signal (name, dtype, shape, bytes) and the header
-    without its hash entry."""
-    digest = hashlib.sha256()
-    body = {k: v for k, v in header.items() if k != "hash"}
-    digest.update(json.dumps(body, sort_keys=True).encode())
+    without its hash entry (the arrays are hashed in place, not copied)."""
+    digest = ContentHash(header)
     for name, values in [("t", t), *sorted(signals.items())]:
         values = np.ascontiguousarray(values)
-        digest.update(f"{name}|{values.dtype.str}|{values.shape}|".encode())
-        digest.update(values.tobytes())
+        digest.array(name, values.dtype, values.shape, [values.reshape(-1).view(np.uint8)])
     return digest.hexdigest()
+
+
+def header_body(spec: ManipulatorSpec, meta: dict[str, Any], units: dict[str, str]) -> dict[str, Any]:
+    """The JSON header of a run file without its hash (format, spec, meta, units, versions)."""
+    return {
+        "format": FORMAT,
+        "spec": spec.to_dict(),
+        "meta": dict(meta),
+        "units": units,
+        "versions": {"maniplab": _version("maniplab"), "mujoco": _version("mujoco")},
+    }
 
 
 def header_of(run: Run) -> dict[str, Any]:
     """The JSON header stored with ``run`` (format, spec, meta, units, versions, hash)."""
-    header = {
-        "format": FORMAT,
-        "spec": run.spec.to_dict(),
-        "meta": dict(run.meta),
-        "units": run.units(),
-        "versions": {"maniplab": _version("maniplab"), "mujoco": _version("mujoco")},
-    }
+    header = header_body(run.spec, dict(run.meta), run.units())
     header["hash"] = content_hash(np.asarray(run.t), dict(run.signals), header)
     return header
 
@@ -91,24 +120,64 @@ def read_header(path: Path) -> dict[str, Any]:
         return _header(path, data)
 
 
-def load(path: Path, cls: type[R]) -> R:
+def load(path: Path, cls: type[R], *, mmap: bool = False, verify: bool = True) -> R:
     """Read a run file as a ``cls`` (a Run) and check its content hash; raises RunFileError naming
     the file and what is wrong (missing, truncated, corrupt, unknown format, invalid spec, signals
-    of the wrong length)."""
+    of the wrong length).
+
+    Args:
+        path: the run file.
+        cls: the class of the run made.
+        mmap: memory-map the arrays stored uncompressed (as maniplab writes them) instead of
+            reading them: read-only arrays whose pages are read from the file when used.
+        verify: check the content hash (False only for a file this process just wrote).
+    """
+    read = _mapped if mmap else _array
     with _open(path) as data:
         header = _header(path, data)
-        t = _array(path, data, "t")
-        signals = {name.removeprefix("signal/"): _array(path, data, name)
+        t = read(path, data, "t")
+        signals = {name.removeprefix("signal/"): read(path, data, name)
                    for name in data.files if name.startswith("signal/")}
-    if content_hash(t, signals, header) != header.get("hash"):
+    if verify and content_hash(t, signals, header) != header.get("hash"):
         raise RunFileError(f"{path}: content hash mismatch; the file is corrupt or was edited")
     spec = stored_spec(header, path)
     try:
         run = cls(t=t, signals=signals, spec=spec, meta=header.get("meta", {}))
     except ManiplabError as exc:  # e.g. a signal whose length is not t's
         raise RunFileError(f"{path}: {exc}") from None
-    _check_samples(path, run)
+    if verify:
+        _check_samples(path, run)
     return run
+
+
+def blocks(path: Path, name: str, rows: int = 1 << 16) -> Iterator[np.ndarray]:
+    """Signal ``name`` (or ``"t"``) of a run file, ``rows`` samples at a time, read from the file
+    (not mapped, nothing kept): a pass over a signal in bounded memory. The member's CRC is checked
+    at its end, not the run's content hash.
+
+    Raises:
+        RunFileError: the file or the member cannot be read.
+    """
+    member = name if name == "t" else f"signal/{name}"
+    try:
+        with zipfile.ZipFile(path) as archive, archive.open(f"{member}.npy") as handle:
+            major, _ = np.lib.format.read_magic(handle)
+            read = (np.lib.format.read_array_header_1_0 if major == 1
+                    else np.lib.format.read_array_header_2_0)
+            shape, fortran, dtype = read(handle)
+            if fortran or dtype.hasobject or not shape:
+                raise ValueError("not a C-ordered plain array")
+            row = dtype.itemsize * math.prod(shape[1:])
+            for start in range(0, shape[0], rows):
+                count = min(rows, shape[0] - start)
+                data = handle.read(count * row)
+                if len(data) != count * row:
+                    raise EOFError
+                yield np.frombuffer(data, dtype).reshape(count, *shape[1:])
+    except KeyError:
+        raise _unreadable(path, f"no {member!r} array") from None
+    except _READ_ERRORS as exc:
+        raise _unreadable(path, f"{member!r}: {_why(exc)}") from None
 
 
 def stored_spec(header: dict[str, Any], path: Path) -> ManipulatorSpec:
@@ -122,9 +191,9 @@ def stored_spec(header: dict[str, Any], path: Path) -> ManipulatorSpec:
 def _check_samples(path: Path, run: Run) -> None:
     """What every reader of a run relies on: samples at increasing finite times, ``q``, and one
     column per joint in the per-joint signals (``ee_pos``: x, y, z)."""
-    t = run.t
-    if not len(t) or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
+    if not _increasing(run.t):
         raise RunFileError(f"{path}: t is not a non-empty increasing series of finite times")
+    t = run.t
     if "q" not in run.signals:
         raise RunFileError(f"{path}: the run has no signal 'q'")
     for name, values in run.signals.items():
@@ -132,6 +201,18 @@ def _check_samples(path: Path, run: Run) -> None:
         if width is not None and values.shape[1:] != (width,):
             raise RunFileError(f"{path}: signal {name!r} has shape {values.shape}; expected "
                                f"({len(t)}, {width})")
+
+
+def _increasing(t: np.ndarray, block: int = 1 << 20) -> bool:
+    """Whether ``t`` is a non-empty increasing series of finite times (checked ``block`` samples
+    at a time, so that a memory-mapped t is not copied whole)."""
+    if not len(t):
+        return False
+    for start in range(0, len(t), block):
+        part = t[start:start + block + 1]
+        if not (np.all(np.isfinite(part)) and np.all(part[1:] > part[:-1])):
+            return False
+    return True
 
 
 def _open(path: Path) -> np.lib.npyio.NpzFile:
@@ -174,6 +255,46 @@ def _array(path: Path, data: np.lib.npyio.NpzFile, name: str, kinds: str = "biuf
     if not isinstance(values, np.ndarray) or values.dtype.kind not in kinds:
         raise _unreadable(path, f"{name!r} is not a plain array")
     return values
+
+
+def _mapped(path: Path, data: np.lib.npyio.NpzFile, name: str, kinds: str = "biuf") -> np.ndarray:
+    """Member ``name`` of an opened run file memory-mapped, read-only, when it is stored
+    uncompressed (else read as :func:`_array` does)."""
+    if name not in data.files:
+        raise _unreadable(path, f"no {name!r} array")
+    archive = data.zip
+    assert archive is not None  # an open NpzFile
+    entry = f"{name}.npy"
+    if entry not in archive.namelist() or archive.getinfo(entry).compress_type != zipfile.ZIP_STORED:
+        return _array(path, data, name, kinds)
+    try:
+        _check_size(data, name)
+        offset, dtype, shape, fortran = _npy_at(path, archive.getinfo(entry))
+        if dtype.kind not in kinds:
+            raise _unreadable(path, f"{name!r} is not a plain array")
+        if math.prod(shape) == 0:
+            return np.empty(shape, dtype)
+        mapped = np.memmap(path, dtype=dtype, mode="r", offset=offset, shape=shape,
+                           order="F" if fortran else "C")
+    except _READ_ERRORS as exc:
+        raise _unreadable(path, f"{name!r}: {_why(exc)}") from None
+    return np.asarray(mapped)  # a plain read-only ndarray on the map (kept open by it)
+
+
+def _npy_at(path: Path, info: zipfile.ZipInfo) -> tuple[int, np.dtype, tuple[int, ...], bool]:
+    """(offset of the data in the file, dtype, shape, Fortran order) of a stored .npy member."""
+    with open(path, "rb") as handle:
+        handle.seek(info.header_offset)
+        local = handle.read(30)
+        if len(local) != 30 or local[:4] != b"PK\x03\x04":
+            raise ValueError("bad local header")
+        name_length, extra_length = struct.unpack("<HH", local[26:30])
+        handle.seek(info.header_offset + 30 + name_length + extra_length)
+        major, _ = np.lib.format.read_magic(handle)
+        read = (np.lib.format.read_array_header_1_0 if major == 1
+                else np.lib.format.read_array_header_2_0)
+        shape, fortran, dtype = read(handle)
+        return handle.tell(), dtype, shape, fortran
 
 
 def _check_size(data: np.lib.npyio.NpzFile, name: str) -> None:
