@@ -1,7 +1,9 @@
-"""The analytic model: symbolic equations of motion from the spec, compiled for fast evaluation.
+"""The analytic model: recursive dynamics recorded as straight-line code and compiled; readable
+symbolic equations on demand.
 
 - :class:`AnalyticModel` (``ml.AnalyticModel``): numeric M, C, G, inverse/forward dynamics,
-  stuck-joint dynamics, forward kinematics and Jacobian, one state or a batch.
+  stuck-joint dynamics, forward kinematics and Jacobian, one state or a batch (RNEA, CRBA and
+  the Christoffel C recorded on a tape, see :mod:`~maniplab.model.recursive`).
 - :class:`SymbolicModel`: sympy matrices (H, Jacobians, M, C, G, Fv) with chosen parameters kept
   as symbols.
 - :func:`export_model`: LaTeX, Markdown, a self-contained Python module or C file.

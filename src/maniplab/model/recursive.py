@@ -19,6 +19,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from maniplab.model.inertial import InertialParameters, Slot
+from maniplab.model.kinematics import add, cross, scale, sub
 from maniplab.model.tape import Num, Tape, TapeKernel, kernel
 
 V3 = list  # three Nums
@@ -80,23 +81,7 @@ class Arm:
         return p
 
 
-# --- 3-vectors -----------------------------------------------------------------------------------
-
-def add(a: V3, b: V3) -> V3:
-    return [x + y for x, y in zip(a, b)]
-
-
-def sub(a: V3, b: V3) -> V3:
-    return [x - y for x, y in zip(a, b)]
-
-
-def scale(a: V3, k: Num) -> V3:
-    return [x * k for x in a]
-
-
-def cross(a: V3, b: V3) -> V3:
-    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-
+# --- vectors (add, sub, scale and cross work on any scalars: kinematics' serve) ---------------------
 
 def dot(a: Sequence[Num], b: Sequence[Num]) -> Num:
     acc: Num = _ZERO
