@@ -42,6 +42,7 @@ from maniplab.builtin import builtin_spec, builtin_specs, resolve_spec
 from maniplab.control import CascadeController, MinJerkMove, Path, Pose, segment_placement
 from maniplab.control.linearize import linearize
 from maniplab.errors import ManiplabError, ModelError, SpecError
+from maniplab.identification import identify
 from maniplab.loadchart import LoadChart, load_chart
 from maniplab.mjcf_gen import build_model, to_mjcf
 from maniplab.model import AnalyticModel
@@ -116,6 +117,7 @@ __all__ = [
     "builtin_spec",
     "builtin_specs",
     "crossvalidate",
+    "identify",
     "linearize",
     "load_chart",
     "load_plugins",

@@ -123,6 +123,23 @@ class Cancel:
         return self._event.is_set()
 
 
+class Threads(cf.ThreadPoolExecutor):
+    """Threads whose running work stops at its next :func:`check_cancelled` once :meth:`stop` is
+    called (the plant's run loop checks at every pause)."""
+
+    def __init__(self, workers: int) -> None:
+        super().__init__(max_workers=workers)
+        self.cancel = Cancel()
+
+    def submit(self, fn: Any, /, *args: Any, **kwargs: Any) -> cf.Future:
+        return super().submit(self.cancel.run, fn, *args, **kwargs)
+
+    def stop(self) -> None:
+        """Cancel the running work, drop the queued work, and wait for the threads."""
+        self.cancel.set()
+        self.shutdown(wait=True, cancel_futures=True)
+
+
 def check_cancelled() -> None:
     """Raise KeyboardInterrupt when the work of the calling thread was cancelled (:class:`Cancel`).
 

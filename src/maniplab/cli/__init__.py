@@ -14,6 +14,7 @@ from collections.abc import Sequence
 from maniplab.cli import (
     control_command,
     demo_command,
+    identify_command,
     loadchart_command,
     render_command,
     sim_commands,
@@ -36,7 +37,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"maniplab {package_version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
     for module in (spec_commands, sim_commands, control_command, tune_command,
-                   loadchart_command, render_command, demo_command):
+                   loadchart_command, identify_command, render_command, demo_command):
         module.add(sub)
     return parser
 

@@ -247,6 +247,35 @@ class Function(Signal):
         return self.name
 
 
+class Held(Signal):
+    """Samples held between their times (zero-order hold): ``values[k]`` from ``times[k]`` on,
+    ``values[0]`` before the first time. What a digital controller's logged commands were."""
+
+    def __init__(self, times: np.ndarray, values: np.ndarray) -> None:
+        self.times = np.asarray(times, dtype=float)
+        self.values = np.asarray(values, dtype=float)
+
+    def __call__(self, t: float) -> float:
+        return float(self.sample(np.array([t]))[0])
+
+    def sample(self, t: np.ndarray) -> np.ndarray:
+        t = np.asarray(t, dtype=float)
+        k = np.searchsorted(self.times, t + EPS, side="right") - 1
+        return self.values[np.clip(k, 0, len(self.values) - 1)]
+
+    def __repr__(self) -> str:
+        return (f"held({len(self.values)} samples, {_fmt(self.times[0])}..{_fmt(self.times[-1])} s)"
+                if len(self.times) else "held(0 samples)")
+
+
+def held(times: np.ndarray, values: np.ndarray) -> Held:
+    """Samples ``values`` at ``times`` (s, increasing), each held until the next."""
+    if len(times) != len(values) or len(times) == 0:
+        raise InputError(f"held: times and values must be non-empty and of one length, got "
+                         f"{len(times)} and {len(values)}")
+    return Held(np.asarray(times, dtype=float), np.asarray(values, dtype=float))
+
+
 def constant(value: float) -> Constant:
     """A constant signal."""
     return Constant(float(value))
@@ -288,5 +317,5 @@ def as_signal(value: Signal | Number | Callable[[float], float]) -> Signal:
     raise SignalTypeError(f"expected a signal, a number or a callable of time, got {value!r}")
 
 
-__all__ = ["EPS", "Signal", "SignalTypeError", "as_signal", "constant", "impulse", "ramp", "sine",
-           "step"]
+__all__ = ["EPS", "Signal", "SignalTypeError", "as_signal", "constant", "held", "impulse", "ramp",
+           "sine", "step"]

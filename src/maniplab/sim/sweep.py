@@ -35,7 +35,7 @@ from maniplab.sim.run import Run
 from maniplab.sim.runset import Failure, RunSet
 from maniplab.sim.simulate import simulate
 from maniplab.spec import ManipulatorSpec, model_of
-from maniplab.workers import Cancel, process_pool, stop_processes
+from maniplab.workers import Threads, process_pool, stop_processes
 
 Variants = Mapping[str, Sequence[Any]] | Sequence[Mapping[str, Any]]
 
@@ -172,28 +172,13 @@ def _executor(executor: Any, processes: int | None, threads: bool) -> cf.Executo
         if processes == 1:
             return _InProcess()
         workers = processes or os.cpu_count() or 1
-        return _Threads(workers) if threads else process_pool(workers)
+        return Threads(workers) if threads else process_pool(workers)
     if hasattr(executor, "get_executor"):  # dask.distributed.Client
         return _Borrowed(executor.get_executor())
     if isinstance(executor, cf.Executor):
         return _Borrowed(executor)
     raise ManiplabError(f"executor must be a concurrent.futures.Executor or a "
                         f"dask.distributed.Client, got {type(executor).__name__}")
-
-
-class _Threads(cf.ThreadPoolExecutor):
-    """Threads whose running variants stop at their next pause once :meth:`stop` is called."""
-
-    def __init__(self, workers: int) -> None:
-        super().__init__(max_workers=workers)
-        self.cancel = Cancel()
-
-    def submit(self, fn: Any, /, *args: Any, **kwargs: Any) -> cf.Future:
-        return super().submit(self.cancel.run, fn, *args, **kwargs)
-
-    def stop(self) -> None:
-        self.cancel.set()
-        self.shutdown(wait=True, cancel_futures=True)
 
 
 class _Borrowed(cf.Executor):
@@ -220,7 +205,7 @@ def _stop(pool: cf.Executor) -> None:
     """Stop the sweep's pool at once (Ctrl-C or an error): no variant runs on, no worker is left."""
     if isinstance(pool, cf.ProcessPoolExecutor):
         stop_processes(pool)
-    elif isinstance(pool, _Threads):
+    elif isinstance(pool, Threads):
         pool.stop()
     else:
         pool.shutdown(wait=True, cancel_futures=True)

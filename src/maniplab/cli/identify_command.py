@@ -1,0 +1,70 @@
+"""``maniplab identify``: fit spec parameters to measurements from a real arm."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from maniplab.cli.common import output_file, spec_argument
+
+
+def add(sub: argparse._SubParsersAction) -> None:
+    """Register the sub-command of this module."""
+    p = sub.add_parser(
+        "identify", help="fit spec parameters to measured data (friction, leakage, payload...)",
+        description="Simulate the arm under the measured inputs of each DATA file (CSV with "
+                    "columns t, ctrl.<joint>, q.<joint> and optionally qd.<joint>, dP.<joint>, "
+                    "pA.<joint>, pB.<joint>; or a run file) from its measured first sample, fit "
+                    "the --params by bounded least squares, and print the fitted values with "
+                    "95 %% confidence intervals, the residuals and what the data cannot tell "
+                    "apart. Writes the fitted spec (-o) and a figure of measured against fitted "
+                    "signals (--figure).")
+    spec_argument(p)
+    p.add_argument("data", nargs="+", type=Path, metavar="DATA",
+                   help="measurement files: .csv or maniplab run files (.npz), one experiment each")
+    p.add_argument("--params", required=True, metavar="P1,P2,...",
+                   help="dotted spec paths to fit, as for --set, each optionally with bounds: "
+                        "joints.q2.friction.coulomb,end_effector.mass[0:8000]")
+    p.add_argument("--signals", metavar="S1,S2",
+                   help="measured signals to fit (default: all the data has of q, qd, dP, pA, pB)")
+    p.add_argument("--loss", default="linear", choices=("linear", "soft_l1", "huber", "cauchy"),
+                   help="least-squares loss: linear, or a robust one against outliers")
+    p.add_argument("-o", "--output", type=output_file, default=Path("out/fitted.yaml"),
+                   metavar="FILE", help="the fitted spec (default: out/fitted.yaml)")
+    p.add_argument("--figure", type=output_file, default=Path("out/identify.png"),
+                   metavar="FILE", help="measured against fitted signals (default: "
+                                        "out/identify.png)")
+    p.set_defaults(func=_cmd_identify)
+
+
+def _cmd_identify(args: argparse.Namespace) -> int:
+    from maniplab.atomic import write_text
+    from maniplab.identification import identify, write_figure
+    from maniplab.spec.yaml_io import dump_yaml
+
+    params = [text for text in _split(args.params) if text]
+    signals = [s.strip() for s in args.signals.split(",")] if args.signals else None
+    result = identify(args.spec, args.data, params, signals=signals, loss=args.loss)
+    print(result.report())
+    header = [(f"# maniplab spec '{result.spec.name}', fitted by maniplab identify to "
+               f"{', '.join(str(d) for d in args.data)}:")]
+    header += [f"#   {p.path} = {v:.6g} ± {s:.2g} (1 std)"
+               for p, v, s in zip(result.parameters, result.values, result.std)]
+    write_text(args.output, "\n".join(header) + "\n" + dump_yaml(result.spec.to_dict()))
+    write_figure(result, args.figure)
+    print(f"wrote {args.output} (the fitted spec) and {args.figure}")
+    return 0
+
+
+def _split(text: str) -> list[str]:
+    """Split at commas outside brackets: ``a[0:1],b`` -> ``a[0:1]``, ``b``."""
+    parts, depth, current = [], 0, ""
+    for char in text:
+        depth += (char == "[") - (char == "]")
+        if char == "," and depth == 0:
+            parts.append(current.strip())
+            current = ""
+        else:
+            current += char
+    parts.append(current.strip())
+    return parts

@@ -1,0 +1,477 @@
+"""Fit spec parameters to measured experiments: the plant simulated under the measured inputs.
+
+For parameter values θ, each experiment is simulated from its measured initial state (q, and q̇
+and the pressures when measured; otherwise at rest with the pressures that hold the arm) under
+its measured commands, held between samples; the residuals are simulated minus measured at the
+measured times, each signal divided by its scale. scipy's trust-region reflective least squares
+(bounds, any loss) then moves θ, each parameter divided by its start. The Jacobian is taken by
+finite differences, one simulation per parameter, run in parallel threads (the plant's loop runs
+in C without the interpreter lock).
+
+The fit runs twice: first with each signal divided by a unit scale (:data:`UNIT_SCALES`), then,
+from there, with each signal of each joint divided by the spread of its own residuals, so that a
+signal's weight is its measured precision.
+
+The covariance of the estimate is 2 s² H⁻¹, s² the residual variance per degree of freedom and H
+the Hessian of the cost Σ r². Stick/slip friction makes the cost rough on small scales (a joint
+that sticks one step earlier), so neither an infinitesimal Jacobian nor its JᵀJ says how far a
+parameter can move: H is taken by secants over about three standard deviations of each parameter
+(from JᵀJ first, then adjusted until the cost rises by about 9 s² there), on each axis and each
+pair of axes. Where the cost jumps by ρ for moves of one standard deviation (its roughness,
+measured at random such moves), the secants are taken over a rise of at least 4ρ and the
+covariance is widened by (3.84 s² + 2ρ) / 3.84 s²: values whose cost is within the jumps of the
+best one cannot be told from it. The confidence intervals are ±1.96 standard deviations, the
+correlation from the covariance.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+from collections.abc import Callable, Iterable, Sequence
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from maniplab.builtin import resolve_spec
+from maniplab.errors import ManiplabError
+from maniplab.identification.data import Experiment, load_experiments
+from maniplab.identification.parameters import Parameter, parse_parameters
+from maniplab.progress import Progress
+from maniplab.sim.signals import held
+from maniplab.spec import ManipulatorSpec
+from maniplab.workers import Threads
+
+UNIT_SCALES = {"q": 1e-3, "qd": 1e-2, "dP": 1e5, "pA": 1e5, "pB": 1e5}
+"""The first fit's scale of each signal: 1 mrad (or mm), 0.01 rad/s (or m/s), 1 bar."""
+
+CORRELATED = 0.95
+"""|correlation| above which two parameters cannot be told apart from the data."""
+
+FAILED = 1e3
+"""The residual (in scales) of a simulation that fails for a parameter set: the fit backs off."""
+
+STEP = 1e-2
+"""Relative finite-difference step of the Jacobian (of each parameter divided by its start): large
+enough to step over the roughness stick/slip gives the residuals."""
+
+RISE = 9.0
+"""The cost rise (in s²) over which the Hessian's secants are taken: three standard deviations."""
+
+CHI2 = 3.84
+"""χ² with one degree of freedom at 95 %: the cost rise at the edge of a confidence interval."""
+
+
+class IdentificationError(ManiplabError):
+    """The fit cannot start or cannot be completed: one line saying why."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Identification:
+    """A fit's result.
+
+    Attributes:
+        parameters: what was fitted.
+        values: the fitted values, (p,), in the spec's units.
+        std: their standard deviations, (p,).
+        correlation: (p, p).
+        residual_rms: signal -> RMS of simulated minus measured over the experiments, in the
+            signal's unit (rad or m, rad/s or m/s, Pa).
+        noise: (signal, joint) -> the spread of that signal's residuals (its weight in the fit).
+        warnings: one line each: parameters the data cannot tell apart, or that they hardly move.
+        spec: the spec with the fitted values.
+        fitted: per experiment, signal key -> the simulated values at the measured times.
+        experiments: the data.
+        evaluations: simulations run (residuals and Jacobians).
+    """
+
+    parameters: tuple[Parameter, ...]
+    values: np.ndarray
+    std: np.ndarray
+    correlation: np.ndarray
+    residual_rms: dict[str, float]
+    noise: dict[tuple[str, str], float]
+    warnings: tuple[str, ...]
+    spec: ManipulatorSpec
+    fitted: tuple[dict[tuple[str, str], np.ndarray], ...]
+    experiments: tuple[Experiment, ...]
+    evaluations: int
+
+    @property
+    def interval(self) -> np.ndarray:
+        """95 % confidence intervals, (p, 2): value ± 1.96 std."""
+        return np.column_stack([self.values - 1.96 * self.std, self.values + 1.96 * self.std])
+
+    def table(self) -> str:
+        """The fitted values as a Markdown table."""
+        lines = ["| parameter | start | fitted | 95 % interval | ± |", "|---|---|---|---|---|"]
+        for p, value, std, (lo, hi) in zip(self.parameters, self.values, self.std, self.interval):
+            rel = f"{100 * std / abs(value):.2g} %" if value else "-"
+            lines.append(f"| {p.path} | {p.start:.6g} | {value:.6g} | [{lo:.6g}, {hi:.6g}] | "
+                         f"{rel} |")
+        return "\n".join(lines)
+
+    def report(self) -> str:
+        """The table, the residuals and the warnings, as text for a terminal."""
+        rms = ", ".join(f"{s} {v:.3g}" for s, v in self.residual_rms.items())
+        out = [self.table(), "", f"residual RMS: {rms} ({self.evaluations} simulations)"]
+        out += [f"warning: {w}" for w in self.warnings]
+        return "\n".join(out)
+
+
+def identify(spec: ManipulatorSpec | str | os.PathLike[str],
+             data: Sequence[Experiment] | Sequence[str | os.PathLike[str]],
+             params: Iterable[str | Parameter], *, signals: Iterable[str] | None = None,
+             loss: Loss = "linear", max_evaluations: int = 60, workers: int | None = None,
+             progress: bool | None = None) -> Identification:
+    """Fit ``params`` of ``spec`` to measured experiments.
+
+    Args:
+        spec: the arm (spec, file or built-in name): the start of every parameter.
+        data: experiments, or files to read them from (CSV or run files, see
+            :mod:`~maniplab.identification.data`).
+        params: dotted paths (``"joints.q2.friction.coulomb"``, ``"end_effector.mass[0:8000]"``)
+            or :class:`Parameter` objects.
+        signals: the measured signals to fit (default: all the data has).
+        loss: scipy's loss: "linear" (least squares), or "soft_l1", "huber", "cauchy" to limit
+            the pull of outliers.
+        max_evaluations: residual evaluations per fit stage (each also takes a Jacobian).
+        workers: threads for the Jacobian's simulations (default: the cores).
+        progress: show progress (None: a bar on a terminal, lines in a log when it lasts).
+
+    Raises:
+        IdentificationError, DataError, SpecError: one line.
+    """
+    spec = resolve_spec(spec)
+    given = [e for e in data if isinstance(e, Experiment)]
+    files = [d for d in data if not isinstance(d, Experiment)]
+    experiments = tuple(given) + tuple(load_experiments(files, spec, signals))
+    if not experiments:
+        raise IdentificationError("no data: give one or more experiments (CSV or run files)")
+    parameters = tuple(p for p in params if isinstance(p, Parameter)) or \
+        tuple(parse_parameters([p for p in params if isinstance(p, str)], spec))
+    problem = _Problem(spec, parameters, experiments)
+    pool = _Pool(workers or os.cpu_count() or 1)
+    bar = Progress(2 * max_evaluations, f"identify {spec.name}: {len(parameters)} parameters",
+                   progress)
+    try:
+        x = problem.x0()
+        for stage in ("unit scales", "measured precision"):
+            bar.start(f"fitting with {stage}")
+            if stage != "unit scales":
+                problem.reweight(x)
+            x = _solve(problem, x, loss, max_evaluations, pool, bar)
+            bar.step(f"fitted with {stage}")
+        return problem.result(x, pool)
+    except BaseException:
+        pool.stop()
+        raise
+    finally:
+        pool.shutdown()
+        bar.close()
+
+
+Loss = Literal["linear", "soft_l1", "huber", "cauchy", "arctan"]
+
+
+def _solve(problem: _Problem, x0: np.ndarray, loss: Loss, budget: int, pool: _Pool,
+           bar: Progress) -> np.ndarray:
+    def fun(x: np.ndarray) -> np.ndarray:
+        r = problem.residual(x)
+        bar.step(f"cost {float(r @ r):.6g} after {problem.evaluations} simulations")
+        return r
+
+    def jac(x: np.ndarray) -> np.ndarray:
+        return problem.jacobian(x, pool)
+
+    lower, upper = problem.bounds()
+    x0 = np.clip(x0, np.nextafter(lower, np.inf), np.nextafter(upper, -np.inf))
+    result = least_squares(fun, x0, jac=jac, bounds=(lower, upper), method="trf", loss=loss,
+                           x_scale="jac", max_nfev=budget, ftol=1e-10, xtol=1e-10, gtol=1e-10)
+    return np.asarray(result.x)
+
+
+class _Pool(Threads):
+    """The fit's threads, with a parallel map of the simulations."""
+
+    def map_runs(self, fn: Callable[[Any], Any], items: Sequence[Any]) -> list[Any]:
+        return [f.result() for f in [self.submit(fn, item) for item in items]]
+
+
+class _Problem:
+    """The residual function of a fit: parameters (divided by their starts) -> weighted residuals."""
+
+    def __init__(self, spec: ManipulatorSpec, parameters: tuple[Parameter, ...],
+                 experiments: tuple[Experiment, ...]) -> None:
+        self.spec, self.parameters, self.experiments = spec, parameters, experiments
+        self.keys = [sorted(e.measured, key=_order) for e in experiments]
+        self.scales = [{k: UNIT_SCALES[k[0]] for k in keys} for keys in self.keys]
+        self.evaluations = 0
+        self.size = sum(len(e.t) * len(keys) for e, keys in zip(experiments, self.keys))
+        # the initial state is estimated too: an offset to each measured first value
+        self.offsets = [(i, k) for i, keys in enumerate(self.keys) for k in keys]
+        self.dimension = len(parameters) + len(self.offsets)
+        start = self.simulate(self.x0())
+        if start is None:
+            raise IdentificationError(f"the plant of {spec.name} fails to simulate the data with "
+                                      "the starting values (see the message above)")
+
+    def x0(self) -> np.ndarray:
+        """The start: every parameter at its spec value, no initial-state offset."""
+        return np.concatenate([np.ones(len(self.parameters)), np.zeros(len(self.offsets))])
+
+    def values(self, x: np.ndarray) -> np.ndarray:
+        return x[:len(self.parameters)] * np.array([p.start for p in self.parameters])
+
+    def initial_offsets(self, x: np.ndarray, i: int) -> dict[tuple[str, str], float]:
+        """Experiment i's offsets to its measured first values, in their units."""
+        z = x[len(self.parameters):]
+        return {k: float(z[n]) * UNIT_SCALES[k[0]] for n, (e, k) in enumerate(self.offsets)
+                if e == i}
+
+    def fitted_spec(self, x: np.ndarray) -> ManipulatorSpec:
+        return self.spec.with_overrides({p.path: float(v)
+                                         for p, v in zip(self.parameters, self.values(x))})
+
+    def simulate(self, x: np.ndarray) -> list[dict[tuple[str, str], np.ndarray]] | None:
+        """Each experiment's simulated signals at its measured times, or None when the plant fails
+        for these values."""
+        from maniplab.sim.plant import Plant
+        from maniplab.sim.simulate import simulate
+
+        self.evaluations += 1
+        try:
+            spec = self.fitted_spec(x)
+            out = []
+            for i, (e, keys) in enumerate(zip(self.experiments, self.keys)):
+                plant = Plant(spec)
+                _start(plant, e, self.initial_offsets(x, i))
+                run = simulate(plant, inputs={j: held(e.t, u) for j, u in e.inputs.items()},
+                               duration=max(e.duration, 1e-9), progress=False)
+                out.append({k: np.interp(e.t, run.t, run[k[0]][:, spec.joint_index(k[1])])
+                            for k in keys})
+            return out
+        except ManiplabError:
+            return None
+
+    def residual(self, x: np.ndarray) -> np.ndarray:
+        return self._residual(self.simulate(x))
+
+    def _residual(self, sims: list[dict[tuple[str, str], np.ndarray]] | None) -> np.ndarray:
+        if sims is None:
+            return np.full(self.size, FAILED)
+        parts = [(sim[k] - e.measured[k]) / scales[k]
+                 for e, keys, sim, scales in zip(self.experiments, self.keys, sims, self.scales)
+                 for k in keys]
+        return np.concatenate(parts)
+
+    def jacobian(self, x: np.ndarray, pool: _Pool) -> np.ndarray:
+        """Forward differences, one simulation per parameter in parallel (backward at a bound)."""
+        base = self.residual(x)
+        steps = STEP * np.maximum(np.abs(x), 1e-2)
+        steps[len(self.parameters):] = 0.1  # an offset of a tenth of its unit scale
+        _, upper = self.bounds()
+        steps = np.where(x + steps > upper, -steps, steps)
+        shifted = [x + steps[i] * np.eye(len(x))[i] for i in range(len(x))]
+        columns = pool.map_runs(self.residual, shifted)
+        return np.column_stack([(c - base) / h for c, h in zip(columns, steps)])
+
+    def reweight(self, x: np.ndarray) -> None:
+        """Divide each signal of each joint by the spread of its residuals at ``x``."""
+        sims = self.simulate(x)
+        if sims is None:
+            return
+        for e, keys, sim, scales in zip(self.experiments, self.keys, sims, self.scales):
+            for k in keys:
+                spread = float(np.std(sim[k] - e.measured[k]))
+                scales[k] = max(spread, 1e-6 * UNIT_SCALES[k[0]])
+
+    def result(self, x: np.ndarray, pool: _Pool) -> Identification:
+        sims = self.simulate(x)
+        if sims is None:
+            raise IdentificationError("the plant fails to simulate with the fitted values")
+        r = self._residual(sims)
+        J = self.jacobian(x, pool)
+        cov_x = self.covariance(x, r, J, pool)
+        p = len(self.parameters)
+        cov_x = cov_x[:p, :p]
+        starts = np.array([p.start for p in self.parameters])
+        std = np.sqrt(np.clip(np.diag(cov_x), 0.0, None)) * np.abs(starts)
+        scale = np.sqrt(np.clip(np.diag(cov_x), 1e-300, None))
+        correlation = np.clip(cov_x / np.outer(scale, scale), -1.0, 1.0)
+        J = J[:, :p]
+        values = self.values(x)
+        return Identification(
+            self.parameters, values, std, correlation, self._rms(sims),
+            {k: v for scales in self.scales for k, v in scales.items()},
+            tuple(_warnings(self.parameters, values, std, correlation, J)),
+            self.fitted_spec(x), tuple(sims), self.experiments, self.evaluations)
+
+    def covariance(self, x: np.ndarray, r: np.ndarray, J: np.ndarray,
+                   pool: _Pool) -> np.ndarray:
+        """Covariance of x (module docstring): 2 s² H⁻¹, widened by the roughness."""
+        cost = float(r @ r)
+        variance = cost / max(len(r) - len(x), 1)
+        gauss_newton = 2.0 * J.T @ J
+        guess = np.sqrt(np.clip(np.diag(variance * 2.0 * np.linalg.pinv(gauss_newton)), 0.0, None))
+        rough = self.roughness(x, cost, guess, pool) / variance
+        curvature = self.curvature(x, cost, variance, guess, max(RISE, 4.0 * rough), pool)
+        diagonal = np.sqrt(np.clip(np.diag(gauss_newton), 1e-300, None))
+        correlation = gauss_newton / np.outer(diagonal, diagonal)
+        root = np.sqrt(np.clip(curvature, 0.0, None))
+        H = correlation * np.outer(root, root)
+        widen = (CHI2 + 2.0 * rough) / CHI2
+        return 2.0 * variance * widen * self._inverse(H, J)
+
+    def roughness(self, x: np.ndarray, cost: float, guess: np.ndarray, pool: _Pool) -> float:
+        """How much the cost jumps for moves of about one standard deviation (stick/slip makes
+        it step, not slope): the upper quartile of |cost change| at random such moves."""
+        rng = np.random.default_rng(0)
+        lower, upper = self.bounds()
+        points = [np.clip(x + guess * rng.choice([-1.0, 1.0], size=len(x)) * 0.5, lower, upper)
+                  for _ in range(max(4, 2 * len(x)))]
+        costs = np.array([float(v @ v) for v in pool.map_runs(self.residual, points)])
+        return float(np.percentile(np.abs(costs - cost), 75))
+
+    def curvature(self, x: np.ndarray, cost: float, variance: float, guess: np.ndarray,
+                  rise_target: float, pool: _Pool) -> np.ndarray:
+        """The cost's second derivative along each axis, by secants over which the cost rises by
+        about ``rise_target`` s² (the Gauss-Newton Hessian gives the correlations)."""
+        lower, upper = self.bounds()
+        room = np.minimum(x - lower, upper - x)
+        step = np.clip(3.0 * guess * math.sqrt(rise_target / RISE),
+                       1e-6 * np.maximum(np.abs(x), 1e-3), 0.9 * room)
+
+        def costs(points: list[np.ndarray]) -> np.ndarray:
+            return np.array([float(v @ v) for v in pool.map_runs(self.residual, points)])
+
+        eye = np.eye(len(x))
+        target = rise_target * variance
+        for _ in range(3):  # until each axis rises by the target within a factor of 4
+            plus, minus = costs([x + h * e for h, e in zip(step, eye)]), \
+                costs([x - h * e for h, e in zip(step, eye)])
+            rise = 0.5 * (plus + minus) - cost
+            off = (rise < target / 4.0) | (rise > 4.0 * target)
+            if not off.any():
+                break
+            factor = np.sqrt(target / np.maximum(rise, 1e-3 * variance))
+            step = np.where(off, np.minimum(step * np.clip(factor, 0.1, 10.0), 0.9 * room), step)
+        return np.asarray((plus + minus - 2.0 * cost) / step**2)
+
+    @staticmethod
+    def _inverse(H: np.ndarray, J: np.ndarray) -> np.ndarray:
+        """H⁻¹; where a rough cost makes the secant Hessian bend the wrong way, the Gauss-Newton
+        Hessian 2 JᵀJ instead (positive semi-definite, unbounded where J has no column)."""
+        symmetric = 0.5 * (H + H.T)
+        if np.linalg.eigvalsh(symmetric)[0] <= 0.0:
+            symmetric = 2.0 * J.T @ J
+        return np.linalg.pinv(symmetric)
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """The bounds of x: the parameters divided by their starts, then the free offsets."""
+        lower = np.array([p.lower / p.start if p.start > 0 else p.upper / p.start
+                          for p in self.parameters])
+        upper = np.array([p.upper / p.start if p.start > 0 else p.lower / p.start
+                          for p in self.parameters])
+        free = np.full(len(self.offsets), np.inf)
+        return np.concatenate([lower, -free]), np.concatenate([upper, free])
+
+    def _rms(self, sims: list[dict[tuple[str, str], np.ndarray]]) -> dict[str, float]:
+        squares: dict[str, list[float]] = {}
+        for e, keys, sim in zip(self.experiments, self.keys, sims):
+            for k in keys:
+                squares.setdefault(k[0], []).extend((sim[k] - e.measured[k]) ** 2)
+        return {s: math.sqrt(float(np.mean(v))) for s, v in squares.items()}
+
+
+def _order(key: tuple[str, str]) -> tuple[int, str]:
+    from maniplab.identification.data import MEASURABLE
+
+    return (MEASURABLE.index(key[0]), key[1])
+
+
+START_WINDOW = 0.02
+"""The span (s) of the first samples a straight line is fitted through to estimate the initial
+state: it averages out the noise of a single sample, and a state that moves is still followed."""
+
+
+def _start(plant: Any, e: Experiment, offsets: dict[tuple[str, str], float]) -> None:
+    """The plant at the experiment's start: measured q (unmeasured joints at 0) and q̇ (else at
+    rest), the states that hold the arm there, then the measured pressures. Each measured value
+    is the straight line through the samples of the first :data:`START_WINDOW` s, at t = 0."""
+    names = plant.spec.joint_names
+    window = max(3, int(np.searchsorted(e.t, START_WINDOW, side="right")))
+    t = e.t[:window]
+
+    def first(signal: str) -> dict[str, float]:
+        out = {}
+        for j in names:
+            if (signal, j) in e.measured:
+                values = e.measured[(signal, j)][:window]
+                line = float(np.polyfit(t, values, 1)[1]) if len(t) >= 3 else float(values[0])
+                out[j] = line + offsets.get((signal, j), 0.0)
+        return out
+
+    plant.set_state(q=[first("q").get(j, 0.0) for j in names],
+                    qd=[first("qd").get(j, 0.0) for j in names])
+    plant.balance_pressures()
+    measured = {s: first(s) for s in ("dP", "pA", "pB") if first(s)}
+    if measured:
+        plant.set_state(**measured)
+
+
+def _warnings(parameters: Sequence[Parameter], values: np.ndarray, std: np.ndarray,
+              correlation: np.ndarray, J: np.ndarray) -> list[str]:
+    out = []
+    for i, p in enumerate(parameters):
+        if not np.any(J[:, i]):
+            out.append(f"{p.path} has no effect on the measured signals: it cannot be fitted "
+                       "from these data")
+        elif values[i] and std[i] > 0.5 * abs(values[i]):
+            out.append(f"{p.path} is poorly determined (± {100 * std[i] / abs(values[i]):.0f} %): "
+                       "these data hardly depend on it")
+    for i in range(len(parameters)):
+        for j in range(i + 1, len(parameters)):
+            if abs(correlation[i, j]) > CORRELATED:
+                out.append(f"{parameters[i].path} and {parameters[j].path} cannot be told apart "
+                           f"from these data (correlation {correlation[i, j]:+.3f}): fit one, or "
+                           "add an experiment that moves them differently (see --suggest)")
+    return out
+
+
+def write_figure(result: Identification, path: str | os.PathLike[str]) -> Path:
+    """Measured (dots) and fitted (lines) signals of every experiment, one panel per signal and
+    joint, in display units."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from maniplab.atomic import atomic_path
+
+    keys = sorted({k for e in result.experiments for k in e.measured}, key=_order)
+    fig, axes = plt.subplots(len(keys), 1, figsize=(8, 1.8 * len(keys) + 0.6), sharex=True,
+                             squeeze=False)
+    pressure = (1e-6, "MPa")
+    for ax, key in zip(axes[:, 0], keys):
+        sliding = result.spec.joint(key[1]).prismatic
+        factor, unit = {"q": (1.0, "m" if sliding else "rad"),
+                        "qd": (1.0, "m/s" if sliding else "rad/s")}.get(key[0], pressure)
+        for e, sim in zip(result.experiments, result.fitted):
+            if key in e.measured:
+                ax.plot(e.t, e.measured[key] * factor, ".", ms=2, alpha=0.5,
+                        label=f"measured ({e.name})")
+                ax.plot(e.t, sim[key] * factor, "-", lw=1.2, label=f"fitted ({e.name})")
+        ax.set_ylabel(f"{key[0]} {key[1]}\n[{unit}]", fontsize=8)
+        ax.grid(alpha=0.3)
+    axes[0, 0].legend(fontsize=7, loc="best")
+    axes[-1, 0].set_xlabel("t [s]")
+    fig.suptitle(f"{result.spec.name}: measured and fitted", fontsize=10)
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110, format=Path(path).suffix.lstrip(".") or "png")
+    plt.close(fig)
+    return Path(path)

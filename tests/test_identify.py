@@ -1,0 +1,113 @@
+"""System identification on data made by the plant with known true parameters plus noise (σ in
+``identify_data.NOISE``): the true values are recovered and lie in the confidence intervals;
+parameters the data cannot separate are flagged; bad files and parameters get one line."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from commandline import run_cli
+from identify_data import synthetic
+
+import maniplab as ml
+from maniplab.errors import SpecError
+from maniplab.identification import DataError, Experiment, identify, load_experiments, save_csv
+from maniplab.identification.parameters import parse_parameters
+
+S = ml.signals
+CRANE_INPUTS = {"slew": S.sine(0.4, 0.5, t0=0.3), "luff": S.sine(0.3, 0.3, t0=0.3),
+                "telescope": S.step(0.5, 0.3) + S.step(-1.0, 1.8) + S.step(0.8, 3.3)}
+CRANE_START = [0.0, -0.3, 0.5]
+
+
+def test_payload_leakage_and_bulk_modulus_are_recovered_on_crane3() -> None:
+    spec = ml.builtin_spec("crane3")
+    truth = {"joints.luff.actuator.leakage": 3e-12, "joints.slew.actuator.bulk_modulus": 0.8e9,
+             "end_effector.mass": 130.0}
+    data = synthetic(spec, truth, CRANE_INPUTS, CRANE_START, 4.0)
+    result = identify(spec, [data], list(truth), progress=False)
+    for p, value, (lo, hi) in zip(result.parameters, result.values, result.interval):
+        assert value == pytest.approx(truth[p.path], rel=0.05), p.path
+        assert lo <= truth[p.path] <= hi, (p.path, lo, hi)
+    assert result.residual_rms["q"] < 1.5e-4 and result.residual_rms["dP"] < 3e4  # ~ the noise
+    assert not result.warnings
+    assert result.spec.end_effector.mass == pytest.approx(result.values[2])
+
+
+def test_two_parameters_the_data_cannot_separate_are_flagged() -> None:
+    """With positions alone, a valve's gain and its cylinder's area act mostly as their ratio."""
+    spec = ml.builtin_spec("crane3")
+    truth = {"joints.luff.actuator.valve_gain": 0.0011, "joints.luff.actuator.area": 0.0026}
+    data = synthetic(spec, truth, {"luff": S.sine(0.3, 0.3, t0=0.3)}, CRANE_START, 3.0)
+    positions = Experiment(data.name, data.t, data.inputs,
+                           {k: v for k, v in data.measured.items() if k[0] == "q"})
+    result = identify(spec, [positions], list(truth), progress=False)
+    assert abs(result.correlation[0, 1]) > 0.95
+    assert any("cannot be told apart" in w and "valve_gain" in w and "area" in w
+               for w in result.warnings)
+
+
+def test_the_command_line_goes_from_csv_to_a_fitted_spec(tmp_path: Path, capsys) -> None:
+    spec = ml.builtin_spec("crane3")
+    true = spec.with_overrides({"end_effector.mass": 150.0})
+    t = np.arange(0.0, 2.0 + 1e-9, 0.002)
+    inputs = {j: S.held(t, s.sample(t)) for j, s in CRANE_INPUTS.items()}
+    run = ml.simulate(true, inputs=inputs, duration=2.0, sample_dt=0.002,
+                      initial={"q": CRANE_START, "dP": "gravity"})
+    csv = save_csv(run, tmp_path / "rig.csv")
+    fitted, figure = tmp_path / "fitted.yaml", tmp_path / "fit.png"
+    code, out, err = run_cli(capsys, "identify", "crane3", str(csv), "--params",
+                             "end_effector.mass[0:1000]", "-o", str(fitted), "--figure", str(figure))
+    assert code == 0, err
+    assert ml.load_spec(fitted).end_effector.mass == pytest.approx(150.0, rel=1e-3)
+    assert figure.stat().st_size > 10_000 and "end_effector.mass" in out
+
+
+def test_held_inputs_keep_each_sample_until_the_next() -> None:
+    u = S.held(np.array([0.0, 0.1, 0.3]), np.array([1.0, 2.0, 3.0]))
+    np.testing.assert_array_equal(u.sample(np.array([-1.0, 0.0, 0.05, 0.1, 0.2999, 0.3, 9.0])),
+                                  [1.0, 1.0, 1.0, 2.0, 2.0, 3.0, 3.0])
+
+
+# --- bad input -----------------------------------------------------------------------------------
+
+@pytest.mark.parametrize(("text", "words"), [
+    ("ctrl.luff,q.luff\n0,0\n1,0\n", "no column 't'"),
+    ("t,q.luf\n0,0\n1,0\n", "no joint 'luf'"),
+    ("t,position.luff\n0,0\n1,0\n", "column 'position.luff'"),
+    ("t,q.luff\n0,0\n1,nan\n", "line 3, column 'q.luff'"),
+    ("t,q.luff\n0,0\n1,abc\n", "'abc' is not a number"),
+    ("t,q.luff\n0,0\n0,1\n", "line 3: time 0 s is not after"),
+    ("t,ctrl.luff\n0,0\n1,0\n", "no measured position"),
+    ("t,q.luff\n0,0,1\n1,0\n", "line 2: 3 values for 2 columns"),
+])
+def test_a_bad_csv_is_one_line_naming_the_file_and_column(tmp_path: Path, text: str,
+                                                          words: str, capsys) -> None:
+    path = tmp_path / "bad.csv"
+    path.write_text(text)
+    with pytest.raises(DataError, match="bad.csv") as info:
+        load_experiments([path], ml.builtin_spec("crane3"))
+    assert words in str(info.value) and "\n" not in str(info.value)
+    code, _, err = run_cli(capsys, "identify", "crane3", str(path), "--params",
+                           "end_effector.mass")
+    assert code == 2 and words in err and len(err.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize(("text", "words"), [
+    ("joints.luff.friction.colomb", "no value at 'joints.luff.friction.colomb'"),
+    ("joints.luff.actuator.leakage[1:2]", "outside [1, 2]"),
+    ("end_effector.mass[a:2]", "bound 'a' is not a number"),
+    ("end_effector.offset", "is not a number"),
+])
+def test_a_bad_parameter_is_one_line(text: str, words: str) -> None:
+    with pytest.raises(SpecError, match="parameter") as info:
+        parse_parameters([text], ml.builtin_spec("crane3"))
+    assert words in str(info.value)
+
+
+def test_a_parameter_starting_at_zero_asks_for_a_start() -> None:
+    spec = ml.builtin_spec("crane3").with_overrides({"joints.slew.friction.viscous": 0.0})
+    with pytest.raises(SpecError, match="give a first guess with --set"):
+        parse_parameters(["joints.slew.friction.viscous"], spec)
