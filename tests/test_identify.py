@@ -111,3 +111,11 @@ def test_a_parameter_starting_at_zero_asks_for_a_start() -> None:
     spec = ml.builtin_spec("crane3").with_overrides({"joints.slew.friction.viscous": 0.0})
     with pytest.raises(SpecError, match="give a first guess with --set"):
         parse_parameters(["joints.slew.friction.viscous"], spec)
+
+
+def test_suggest_from_the_command_line_needs_no_data_and_a_fit_needs_data(capsys) -> None:
+    code, _, err = run_cli(capsys, "identify", "crane3", "--params", "end_effector.mass")
+    assert code == 2 and "no data" in err
+    code, out, _ = run_cli(capsys, "identify", "crane3", "--suggest", "--duration", "2",
+                           "--params", "end_effector.mass")
+    assert code == 0 and "--input " in out and "predicted" in out

@@ -20,8 +20,13 @@ def add(sub: argparse._SubParsersAction) -> None:
                     "apart. Writes the fitted spec (-o) and a figure of measured against fitted "
                     "signals (--figure).")
     spec_argument(p)
-    p.add_argument("data", nargs="+", type=Path, metavar="DATA",
+    p.add_argument("data", nargs="*", type=Path, metavar="DATA",
                    help="measurement files: .csv or maniplab run files (.npz), one experiment each")
+    p.add_argument("--suggest", action="store_true",
+                   help="no fit: propose experiments (steps, up-down steps, sines) that make the "
+                        "--params identifiable on this arm, from the outputs' sensitivities")
+    p.add_argument("--duration", type=float, default=5.0, metavar="T",
+                   help="with --suggest: each experiment's duration, s (default 5)")
     p.add_argument("--params", required=True, metavar="P1,P2,...",
                    help="dotted spec paths to fit, as for --set, each optionally with bounds: "
                         "joints.q2.friction.coulomb,end_effector.mass[0:8000]")
@@ -44,6 +49,17 @@ def _cmd_identify(args: argparse.Namespace) -> int:
 
     params = [text for text in _split(args.params) if text]
     signals = [s.strip() for s in args.signals.split(",")] if args.signals else None
+    if args.suggest:
+        from maniplab.identification.suggest import SIGNALS, suggest
+
+        print(suggest(args.spec, params, duration=args.duration,
+                      signals=signals or SIGNALS).report())
+        return 0
+    if not args.data:
+        from maniplab.identification import IdentificationError
+
+        raise IdentificationError("no data: give one or more files (CSV or run files), or "
+                                  "--suggest for experiments to make them")
     result = identify(args.spec, args.data, params, signals=signals, loss=args.loss)
     print(result.report())
     header = [(f"# maniplab spec '{result.spec.name}', fitted by maniplab identify to "

@@ -8,6 +8,10 @@ measured times, each signal divided by its scale. scipy's trust-region reflectiv
 finite differences, one simulation per parameter, run in parallel threads (the plant's loop runs
 in C without the interpreter lock).
 
+The initial state is estimated too: an offset to each measured first value (in units of
+:data:`UNIT_SCALES`) joins the parameters, so that the noise of the first samples does not bias
+them; the intervals are those of the parameters with the offsets free.
+
 The fit runs twice: first with each signal divided by a unit scale (:data:`UNIT_SCALES`), then,
 from there, with each signal of each joint divided by the spread of its own residuals, so that a
 signal's weight is its measured precision.
@@ -426,6 +430,11 @@ def _start(plant: Any, e: Experiment, offsets: dict[tuple[str, str], float]) -> 
 def _warnings(parameters: Sequence[Parameter], values: np.ndarray, std: np.ndarray,
               correlation: np.ndarray, J: np.ndarray) -> list[str]:
     out = []
+    friction = [p.path for p in parameters if ".friction." in p.path]
+    if friction:
+        out.append(f"{', '.join(friction)}: stick/slip makes the fit's cost rough, so it may stop "
+                   "short of the best values with intervals too narrow (work in progress): fit "
+                   "again from other starts (--set) and compare")
     for i, p in enumerate(parameters):
         if not np.any(J[:, i]):
             out.append(f"{p.path} has no effect on the measured signals: it cannot be fitted "
