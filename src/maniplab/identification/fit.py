@@ -155,8 +155,10 @@ def identify(spec: ManipulatorSpec | str | os.PathLike[str],
     experiments = tuple(given) + tuple(load_experiments(files, spec, signals))
     if not experiments:
         raise IdentificationError("no data: give one or more experiments (CSV or run files)")
-    parameters = tuple(p for p in params if isinstance(p, Parameter)) or \
-        tuple(parse_parameters([p for p in params if isinstance(p, str)], spec))
+    wanted = list(params)
+    texts = [p for p in wanted if not isinstance(p, Parameter)]
+    parameters = tuple(p for p in wanted if isinstance(p, Parameter)) + \
+        (tuple(parse_parameters(texts, spec)) if texts else ())
     problem = _Problem(spec, parameters, experiments)
     pool = _Pool(workers or os.cpu_count() or 1)
     bar = Progress(2 * max_evaluations, f"identify {spec.name}: {len(parameters)} parameters",
@@ -184,7 +186,7 @@ Loss = Literal["linear", "soft_l1", "huber", "cauchy", "arctan"]
 def _solve(problem: _Problem, x0: np.ndarray, loss: Loss, budget: int, pool: _Pool,
            bar: Progress) -> np.ndarray:
     def fun(x: np.ndarray) -> np.ndarray:
-        r = problem.residual(x)
+        r = problem.residual_at(x)
         bar.step(f"cost {float(r @ r):.6g} after {problem.evaluations} simulations")
         return r
 
@@ -218,10 +220,12 @@ class _Problem:
         # the initial state is estimated too: an offset to each measured first value
         self.offsets = [(i, k) for i, keys in enumerate(self.keys) for k in keys]
         self.dimension = len(parameters) + len(self.offsets)
+        self._last: tuple[np.ndarray, np.ndarray] | None = None
         start = self.simulate(self.x0())
         if start is None:
             raise IdentificationError(f"the plant of {spec.name} fails to simulate the data with "
                                       "the starting values (see the message above)")
+        self._last = (self.x0(), self._residual(start))
 
     def x0(self) -> np.ndarray:
         """The start: every parameter at its spec value, no initial-state offset."""
@@ -264,6 +268,13 @@ class _Problem:
     def residual(self, x: np.ndarray) -> np.ndarray:
         return self._residual(self.simulate(x))
 
+    def residual_at(self, x: np.ndarray) -> np.ndarray:
+        """The residual at ``x``, reusing the last one asked here (the solver evaluates a point,
+        then takes its Jacobian there). Main thread only; the pool's threads call residual."""
+        if self._last is None or not np.array_equal(self._last[0], x):
+            self._last = (np.array(x, dtype=float), self.residual(x))
+        return self._last[1]
+
     def _residual(self, sims: list[dict[tuple[str, str], np.ndarray]] | None) -> np.ndarray:
         if sims is None:
             return np.full(self.size, FAILED)
@@ -274,7 +285,7 @@ class _Problem:
 
     def jacobian(self, x: np.ndarray, pool: _Pool) -> np.ndarray:
         """Forward differences, one simulation per parameter in parallel (backward at a bound)."""
-        base = self.residual(x)
+        base = self.residual_at(x)
         steps = STEP * np.maximum(np.abs(x), 1e-2)
         steps[len(self.parameters):] = 0.1  # an offset of a tenth of its unit scale
         _, upper = self.bounds()
@@ -288,6 +299,7 @@ class _Problem:
         sims = self.simulate(x)
         if sims is None:
             return
+        self._last = None  # the weights change
         for e, keys, sim, scales in zip(self.experiments, self.keys, sims, self.scales):
             for k in keys:
                 spread = float(np.std(sim[k] - e.measured[k]))
@@ -298,6 +310,7 @@ class _Problem:
         if sims is None:
             raise IdentificationError("the plant fails to simulate with the fitted values")
         r = self._residual(sims)
+        self._last = (np.array(x, dtype=float), r)
         J = self.jacobian(x, pool)
         cov_x = self.covariance(x, r, J, pool)
         p = len(self.parameters)

@@ -48,7 +48,6 @@ the reason.
 
 from __future__ import annotations
 
-import concurrent.futures as cf
 import dataclasses
 import itertools
 import math
@@ -65,7 +64,7 @@ from maniplab.identification.fit import CORRELATED, STEP, UNIT_SCALES, Identific
 from maniplab.identification.parameters import Parameter, parse_parameters
 from maniplab.progress import Progress
 from maniplab.spec import ManipulatorSpec
-from maniplab.workers import Cancel
+from maniplab.workers import Threads
 
 AMPLITUDES = (0.2, 0.5, 0.9)
 """Amplitudes of the steps, as fractions of the joint's command limit."""
@@ -428,11 +427,10 @@ class _Study:
         bar = Progress(len(candidates) * (len(shifts) + starts + 1),
                        f"suggest {self.spec.name}: {len(candidates)} candidates, {p} parameters",
                        progress)
-        pool = cf.ThreadPoolExecutor(max_workers=workers)
-        cancel = Cancel()
+        pool = Threads(workers)
 
         def map_runs(fn: Callable[..., Any], items: list[tuple[Any, ...]], what: str) -> list[Any]:
-            futures = [pool.submit(cancel.run, fn, *item) for item in items]
+            futures = [pool.submit(fn, *item) for item in items]
             out = []
             for f in futures:
                 out.append(f.result())
@@ -467,8 +465,7 @@ class _Study:
                          if key[0] in OFFSETS]
             shifted = iter(map_runs(self.simulate, jobs, "sensitivity"))
         except BaseException:
-            cancel.set()
-            pool.shutdown(wait=True, cancel_futures=True)
+            pool.stop()
             raise
         finally:
             pool.shutdown()

@@ -24,7 +24,7 @@ import dataclasses
 
 import numpy as np
 
-from maniplab.spec import ManipulatorSpec, inertia_matrix
+from maniplab.spec import Joint, ManipulatorSpec, inertia_matrix
 
 AXES = "xyz"
 #: Inertia entries (row, column, label) in parameter order.
@@ -117,13 +117,11 @@ class _Term:
     structural: bool
 
 
-def _offset(joint: object) -> list[Slot]:
-    body = getattr(joint, "body", None)
-    name = getattr(joint, "name", "")
-    if body is None:
-        return [Slot(0.0, False, f"{name} offset {a}, m") for a in AXES]
-    values = body.length * np.asarray(body.direction, dtype=float)
-    return [Slot(float(v), float(v) != 0.0, f"{name} offset {a}, m") for a, v in zip(AXES, values)]
+def _offset(joint: Joint) -> list[Slot]:
+    body = joint.body
+    values = np.zeros(3) if body is None else body.length * np.asarray(body.direction, dtype=float)
+    return [Slot(float(v), float(v) != 0.0, f"{joint.name} offset {a}, m")
+            for a, v in zip(AXES, values)]
 
 
 def _block(name: str, masses: list[tuple[_Term, list[_Term], np.ndarray]], offset: list[Slot],
