@@ -446,3 +446,33 @@ def test_work_in_c_code_is_waited_for_interruptibly() -> None:
     with pytest.raises(KeyboardInterrupt):
         interruptible(never.wait)
     never.set()  # the helper ends too
+
+
+def test_ctrl_c_inside_the_pools_own_code_is_taken_after_it() -> None:
+    """A Ctrl-C that lands inside concurrent.futures (between a lock's acquisition and its
+    release) could leave the pool's lock held and its shutdown waiting forever; submissions and
+    waits therefore take it when they are done: the block runs to its end, then it is raised."""
+    from maniplab.workers import Threads, interrupts_deferred
+
+    ran: list[str] = []
+    with pytest.raises(KeyboardInterrupt):
+        with interrupts_deferred():
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.05)  # the signal is handled between these bytecodes, and only noted
+            ran.append("after the signal")
+    assert ran == ["after the signal"]
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+    pool = Threads(2)
+    never = threading.Event()
+    timer = threading.Timer(0.2, os.kill, (os.getpid(), signal.SIGINT))
+    timer.start()
+    began = time.monotonic()
+    with pytest.raises(KeyboardInterrupt):
+        pool.map_results(never.wait, [(30.0,), (30.0,)])
+    assert time.monotonic() - began < 2.0
+    never.set()
+    stopped = threading.Thread(target=pool.stop)
+    stopped.start()
+    stopped.join(timeout=5.0)
+    assert not stopped.is_alive(), "the pool's shutdown hangs"

@@ -18,7 +18,7 @@ import signal
 import sys
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from typing import Any, TypeVar
 
 T = TypeVar("T")
@@ -132,12 +132,59 @@ class Threads(cf.ThreadPoolExecutor):
         self.cancel = Cancel()
 
     def submit(self, fn: Any, /, *args: Any, **kwargs: Any) -> cf.Future:
-        return super().submit(self.cancel.run, fn, *args, **kwargs)
+        with interrupts_deferred():
+            return super().submit(self.cancel.run, fn, *args, **kwargs)
+
+    def map_results(self, fn: Callable[..., T], items: Iterable[tuple[Any, ...]],
+                    each: Callable[[], object] | None = None) -> list[T]:
+        """``[fn(*item) for item in items]`` computed in the threads, in order; ``each()`` is
+        called in this thread as each result is taken (a progress bar's step)."""
+        futures = [self.submit(fn, *item) for item in items]
+        out = []
+        for future in futures:
+            for _ in completed([future]):
+                out.append(future.result())
+            if each is not None:
+                each()
+        return out
 
     def stop(self) -> None:
         """Cancel the running work, drop the queued work, and wait for the threads."""
         self.cancel.set()
         self.shutdown(wait=True, cancel_futures=True)
+
+
+@contextlib.contextmanager
+def interrupts_deferred() -> Iterator[None]:
+    """Ctrl-C during the block is raised when the block ends, not in its middle.
+
+    A KeyboardInterrupt raised inside ``concurrent.futures`` (between a lock's acquisition and
+    the ``with`` that releases it) can leave a lock of the pool or of a future held, and the
+    pool's shutdown then waits forever. Only the main thread receives signals, and only Python's
+    default handler is replaced; elsewhere the block runs as it is.
+    """
+    if (threading.current_thread() is not threading.main_thread()
+            or signal.getsignal(signal.SIGINT) is not signal.default_int_handler):
+        yield
+        return
+    caught: list[int] = []
+    signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    if caught:
+        raise KeyboardInterrupt
+
+
+def completed(futures: Iterable[cf.Future], poll: float = 0.1) -> Iterator[cf.Future]:
+    """The futures as they complete (as ``concurrent.futures.as_completed``), with Ctrl-C taken
+    only between waits of ``poll`` seconds (:func:`interrupts_deferred`)."""
+    pending = set(futures)
+    while pending:
+        with interrupts_deferred():
+            done, pending = cf.wait(pending, timeout=poll, return_when=cf.FIRST_COMPLETED)
+        yield from done
 
 
 def check_cancelled() -> None:

@@ -33,7 +33,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any, Literal
 
@@ -160,7 +160,7 @@ def identify(spec: ManipulatorSpec | str | os.PathLike[str],
     parameters = tuple(p for p in wanted if isinstance(p, Parameter)) + \
         (tuple(parse_parameters(texts, spec)) if texts else ())
     problem = _Problem(spec, parameters, experiments)
-    pool = _Pool(workers or os.cpu_count() or 1)
+    pool = Threads(workers or os.cpu_count() or 1)
     bar = Progress(2 * max_evaluations, f"identify {spec.name}: {len(parameters)} parameters",
                    progress)
     try:
@@ -183,7 +183,7 @@ def identify(spec: ManipulatorSpec | str | os.PathLike[str],
 Loss = Literal["linear", "soft_l1", "huber", "cauchy", "arctan"]
 
 
-def _solve(problem: _Problem, x0: np.ndarray, loss: Loss, budget: int, pool: _Pool,
+def _solve(problem: _Problem, x0: np.ndarray, loss: Loss, budget: int, pool: Threads,
            bar: Progress) -> np.ndarray:
     def fun(x: np.ndarray) -> np.ndarray:
         r = problem.residual_at(x)
@@ -198,13 +198,6 @@ def _solve(problem: _Problem, x0: np.ndarray, loss: Loss, budget: int, pool: _Po
     result = least_squares(fun, x0, jac=jac, bounds=(lower, upper), method="trf", loss=loss,
                            x_scale="jac", max_nfev=budget, ftol=1e-10, xtol=1e-10, gtol=1e-10)
     return np.asarray(result.x)
-
-
-class _Pool(Threads):
-    """The fit's threads, with a parallel map of the simulations."""
-
-    def map_runs(self, fn: Callable[[Any], Any], items: Sequence[Any]) -> list[Any]:
-        return [f.result() for f in [self.submit(fn, item) for item in items]]
 
 
 class _Problem:
@@ -268,6 +261,10 @@ class _Problem:
     def residual(self, x: np.ndarray) -> np.ndarray:
         return self._residual(self.simulate(x))
 
+    def residuals(self, points: Iterable[np.ndarray], pool: Threads) -> list[np.ndarray]:
+        """The residual at each of ``points``, computed in the pool's threads."""
+        return pool.map_results(self.residual, [(x,) for x in points])
+
     def residual_at(self, x: np.ndarray) -> np.ndarray:
         """The residual at ``x``, reusing the last one asked here (the solver evaluates a point,
         then takes its Jacobian there). Main thread only; the pool's threads call residual."""
@@ -283,7 +280,7 @@ class _Problem:
                  for k in keys]
         return np.concatenate(parts)
 
-    def jacobian(self, x: np.ndarray, pool: _Pool) -> np.ndarray:
+    def jacobian(self, x: np.ndarray, pool: Threads) -> np.ndarray:
         """Forward differences, one simulation per parameter in parallel (backward at a bound)."""
         base = self.residual_at(x)
         steps = STEP * np.maximum(np.abs(x), 1e-2)
@@ -291,7 +288,7 @@ class _Problem:
         _, upper = self.bounds()
         steps = np.where(x + steps > upper, -steps, steps)
         shifted = [x + steps[i] * np.eye(len(x))[i] for i in range(len(x))]
-        columns = pool.map_runs(self.residual, shifted)
+        columns = self.residuals(shifted, pool)
         return np.column_stack([(c - base) / h for c, h in zip(columns, steps)])
 
     def reweight(self, x: np.ndarray) -> None:
@@ -305,7 +302,7 @@ class _Problem:
                 spread = float(np.std(sim[k] - e.measured[k]))
                 scales[k] = max(spread, 1e-6 * UNIT_SCALES[k[0]])
 
-    def result(self, x: np.ndarray, pool: _Pool) -> Identification:
+    def result(self, x: np.ndarray, pool: Threads) -> Identification:
         sims = self.simulate(x)
         if sims is None:
             raise IdentificationError("the plant fails to simulate with the fitted values")
@@ -328,7 +325,7 @@ class _Problem:
             self.fitted_spec(x), tuple(sims), self.experiments, self.evaluations)
 
     def covariance(self, x: np.ndarray, r: np.ndarray, J: np.ndarray,
-                   pool: _Pool) -> np.ndarray:
+                   pool: Threads) -> np.ndarray:
         """Covariance of x (module docstring): 2 s² H⁻¹, widened by the roughness."""
         cost = float(r @ r)
         variance = cost / max(len(r) - len(x), 1)
@@ -343,18 +340,18 @@ class _Problem:
         widen = (CHI2 + 2.0 * rough) / CHI2
         return 2.0 * variance * widen * self._inverse(H, J)
 
-    def roughness(self, x: np.ndarray, cost: float, guess: np.ndarray, pool: _Pool) -> float:
+    def roughness(self, x: np.ndarray, cost: float, guess: np.ndarray, pool: Threads) -> float:
         """How much the cost jumps for moves of about one standard deviation (stick/slip makes
         it step, not slope): the upper quartile of |cost change| at random such moves."""
         rng = np.random.default_rng(0)
         lower, upper = self.bounds()
         points = [np.clip(x + guess * rng.choice([-1.0, 1.0], size=len(x)) * 0.5, lower, upper)
                   for _ in range(max(4, 2 * len(x)))]
-        costs = np.array([float(v @ v) for v in pool.map_runs(self.residual, points)])
+        costs = np.array([float(v @ v) for v in self.residuals(points, pool)])
         return float(np.percentile(np.abs(costs - cost), 75))
 
     def curvature(self, x: np.ndarray, cost: float, variance: float, guess: np.ndarray,
-                  rise_target: float, pool: _Pool) -> np.ndarray:
+                  rise_target: float, pool: Threads) -> np.ndarray:
         """The cost's second derivative along each axis, by secants over which the cost rises by
         about ``rise_target`` s² (the Gauss-Newton Hessian gives the correlations)."""
         lower, upper = self.bounds()
@@ -363,7 +360,7 @@ class _Problem:
                        1e-6 * np.maximum(np.abs(x), 1e-3), 0.9 * room)
 
         def costs(points: list[np.ndarray]) -> np.ndarray:
-            return np.array([float(v @ v) for v in pool.map_runs(self.residual, points)])
+            return np.array([float(v @ v) for v in self.residuals(points, pool)])
 
         eye = np.eye(len(x))
         target = rise_target * variance

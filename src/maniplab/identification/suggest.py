@@ -430,12 +430,7 @@ class _Study:
         pool = Threads(workers)
 
         def map_runs(fn: Callable[..., Any], items: list[tuple[Any, ...]], what: str) -> list[Any]:
-            futures = [pool.submit(fn, *item) for item in items]
-            out = []
-            for f in futures:
-                out.append(f.result())
-                bar.step(what)
-            return out
+            return pool.map_results(fn, items, lambda: bar.step(what))
 
         try:
             bar.start("simulating the candidates")

@@ -35,7 +35,13 @@ from maniplab.sim.run import Run
 from maniplab.sim.runset import Failure, RunSet
 from maniplab.sim.simulate import simulate
 from maniplab.spec import ManipulatorSpec, model_of
-from maniplab.workers import Threads, process_pool, stop_processes
+from maniplab.workers import (
+    Threads,
+    completed,
+    interrupts_deferred,
+    process_pool,
+    stop_processes,
+)
 
 Variants = Mapping[str, Sequence[Any]] | Sequence[Mapping[str, Any]]
 
@@ -101,8 +107,9 @@ def sweep(spec: ManipulatorSpec | str | os.PathLike[str], grid: Variants, *,
     staging = Path(tempfile.mkdtemp(prefix=".sweep-", suffix=".tmp", dir=folder))
     bar = Progress(len(todo), f"sweep {base.name}", progress)
     try:
-        futures = {pool.submit(job, overrides): i for i, overrides in enumerate(todo)}
-        for future in cf.as_completed(futures):
+        with interrupts_deferred():  # a process pool's submit takes its locks too
+            futures = {pool.submit(job, overrides): i for i, overrides in enumerate(todo)}
+        for future in completed(futures):
             i = futures[future]
             outcome = future.result()
             if isinstance(outcome, str):
