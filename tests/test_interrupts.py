@@ -455,11 +455,10 @@ def test_ctrl_c_inside_the_pools_own_code_is_taken_after_it() -> None:
     from maniplab.workers import Threads, interrupts_deferred
 
     ran: list[str] = []
-    with pytest.raises(KeyboardInterrupt):
-        with interrupts_deferred():
-            os.kill(os.getpid(), signal.SIGINT)
-            time.sleep(0.05)  # the signal is handled between these bytecodes, and only noted
-            ran.append("after the signal")
+    with pytest.raises(KeyboardInterrupt), interrupts_deferred():
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(0.05)  # the signal is handled between these bytecodes, and only noted
+        ran.append("after the signal")
     assert ran == ["after the signal"]
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
 
