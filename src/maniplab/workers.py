@@ -137,16 +137,15 @@ class Threads(cf.ThreadPoolExecutor):
 
     def map_results(self, fn: Callable[..., T], items: Iterable[tuple[Any, ...]],
                     each: Callable[[], object] | None = None) -> list[T]:
-        """``[fn(*item) for item in items]`` computed in the threads, in order; ``each()`` is
-        called in this thread as each result is taken (a progress bar's step)."""
-        futures = [self.submit(fn, *item) for item in items]
-        out = []
-        for future in futures:
-            for _ in completed([future]):
-                out.append(future.result())
+        """``[fn(*item) for item in items]`` computed in the threads; ``each()`` is called in
+        this thread as each result comes in (a progress bar's step)."""
+        futures = {self.submit(fn, *item): i for i, item in enumerate(items)}
+        results: dict[int, T] = {}
+        for future in completed(futures):
+            results[futures[future]] = future.result()
             if each is not None:
                 each()
-        return out
+        return [results[i] for i in range(len(futures))]
 
     def stop(self) -> None:
         """Cancel the running work, drop the queued work, and wait for the threads."""
