@@ -12,20 +12,29 @@ The initial state is estimated too: an offset to each measured first value (in u
 :data:`UNIT_SCALES`) joins the parameters, so that the noise of the first samples does not bias
 them; the intervals are those of the parameters with the offsets free.
 
+Before an experiment is fitted, its simulation is tested for chaos: when a change of a millionth
+of a unit to the initial state moves a simulated signal by more than that signal's noise (joints
+chattering in stick/slip, dragged by a neighbour), no values can make the simulation follow the
+data, and the fit refuses with one line naming the joint and signal.
+
+Stick/slip makes the cost a staircase with narrow valleys: a joint that
+sticks one plant step earlier or later shifts all that follows. So before the local solver, each
+parameter is moved to the best of a grid along its axis (±40 % in 2 % steps, the others held),
+until no such move lowers the cost.
+
 The fit runs twice: first with each signal divided by a unit scale (:data:`UNIT_SCALES`), then,
 from there, with each signal of each joint divided by the spread of its own residuals, so that a
 signal's weight is its measured precision.
 
 The covariance of the estimate is 2 s² H⁻¹, s² the residual variance per degree of freedom and H
-the Hessian of the cost Σ r². Stick/slip friction makes the cost rough on small scales (a joint
-that sticks one step earlier), so neither an infinitesimal Jacobian nor its JᵀJ says how far a
-parameter can move: H is taken by secants over about three standard deviations of each parameter
-(from JᵀJ first, then adjusted until the cost rises by about 9 s² there), on each axis and each
-pair of axes. Where the cost jumps by ρ for moves of one standard deviation (its roughness,
-measured at random such moves), the secants are taken over a rise of at least 4ρ and the
-covariance is widened by (3.84 s² + 2ρ) / 3.84 s²: values whose cost is within the jumps of the
-best one cannot be told from it. The confidence intervals are ±1.96 standard deviations, the
-correlation from the covariance.
+the Hessian of the cost Σ r²: secants on each axis over which the cost rises by about 9 s²,
+correlations from the Gauss-Newton Hessian 2 JᵀJ. Then each parameter's profile is walked (the
+cost along its axis, the others held) until the data reject it: a value is accepted while its
+cost is within 3.84 s² + 2ρ of the lowest seen, ρ the height of the largest step or spike of the
+cost near its accepted values (zero on a smooth valley). Where the profile reaches further than
+1.96 of that axis's own standard deviations, the parameter's standard deviation is widened by
+the ratio. The confidence intervals are ±1.96 standard deviations, the correlation from the
+covariance.
 """
 
 from __future__ import annotations
@@ -33,7 +42,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 from typing import Any, Literal
 
@@ -61,6 +70,21 @@ FAILED = 1e3
 STEP = 1e-2
 """Relative finite-difference step of the Jacobian (of each parameter divided by its start): large
 enough to step over the roughness stick/slip gives the residuals."""
+
+SCAN_SPAN, SCAN_STEP, SCAN_ROUNDS = 0.4, 0.02, 3
+"""The grid of :meth:`_Problem.scan`: ±40 % of each parameter's start in 2 % steps, at most three
+rounds over the parameters."""
+
+PROFILE_BATCHES = 8
+"""A profile walks at most this many batches of 8 steps each way (half a standard deviation in the
+first, doubling from batch to batch)."""
+
+WIDENED = 1.5
+"""A profile that widens an interval by more than this says so in a warning."""
+
+NUDGE = 1e-6
+"""The change to the initial state (in :data:`UNIT_SCALES`) by which a fit tests that the
+simulation of its data is not chaotic."""
 
 RISE = 9.0
 """The cost rise (in s²) over which the Hessian's secants are taken: three standard deviations."""
@@ -169,6 +193,8 @@ def identify(spec: ManipulatorSpec | str | os.PathLike[str],
             bar.start(f"fitting with {stage}")
             if stage != "unit scales":
                 problem.reweight(x)
+            if stage == "unit scales":
+                x = problem.scan(x, pool)
             x = _solve(problem, x, loss, max_evaluations, pool, bar)
             bar.step(f"fitted with {stage}")
         return problem.result(x, pool)
@@ -219,6 +245,30 @@ class _Problem:
             raise IdentificationError(f"the plant of {spec.name} fails to simulate the data with "
                                       "the starting values (see the message above)")
         self._last = (self.x0(), self._residual(start))
+        self.check_predictable(start)
+
+    def check_predictable(self, sims: list[dict[tuple[str, str], np.ndarray]]) -> None:
+        """Refuse experiments whose simulation is chaotic: when a change of
+        :data:`NUDGE` of each measured first value's unit moves a simulated signal by more than
+        the measurement's own spread, no parameter values can make the simulation follow the data
+        (joints that chatter in stick/slip, dragged by a neighbour), and a fit would be noise."""
+        x = self.x0()
+        x[len(self.parameters):] = NUDGE
+        nudged = self.simulate(x)
+        if nudged is None:
+            return
+        for e, keys, a, b in zip(self.experiments, self.keys, sims, nudged):
+            for k in keys:
+                moved = float(np.sqrt(np.mean((a[k] - b[k]) ** 2)))
+                noise = float(np.std(np.diff(e.measured[k]))) / math.sqrt(2.0)
+                if moved > max(noise, 1e-3 * UNIT_SCALES[k[0]]):
+                    unit = "Pa" if k[0] in ("dP", "pA", "pB") else "rad or m"
+                    raise IdentificationError(
+                        f"{e.name}: joint {k[1]}'s {k[0]} is chaotic under these inputs: a change "
+                        f"of 1e-6 of a unit to the initial state moves it by {moved:.3g} {unit} "
+                        f"RMS, more than its noise ({noise:.3g}): no values can make the "
+                        "simulation follow it; use inputs under which every joint slides or "
+                        "stays put")
 
     def x0(self) -> np.ndarray:
         """The start: every parameter at its spec value, no initial-state offset."""
@@ -280,6 +330,26 @@ class _Problem:
                  for k in keys]
         return np.concatenate(parts)
 
+    def scan(self, x: np.ndarray, pool: Threads) -> np.ndarray:
+        """Move each parameter to the best of a grid along its axis, the others held, until no
+        move lowers the cost: stick/slip gives the cost narrow valleys between plateaus, where a
+        local solver started on a plateau sees no slope. The grid spans
+        :data:`SCAN_SPAN` of the start in steps of :data:`SCAN_STEP`, within the bounds."""
+        lower, upper = self.bounds()
+        best = float(self.residual_at(x) @ self.residual_at(x))
+        for _ in range(SCAN_ROUNDS):
+            moved = False
+            for i in range(len(self.parameters)):
+                grid = x[i] + np.arange(-SCAN_SPAN, SCAN_SPAN + 1e-9, SCAN_STEP)
+                grid = grid[(grid > lower[i]) & (grid < upper[i]) & (grid != x[i])]
+                points = [np.where(np.arange(len(x)) == i, g, x) for g in grid]
+                costs = [float(r @ r) for r in self.residuals(points, pool)]
+                if costs and min(costs) < best:
+                    x, best, moved = points[int(np.argmin(costs))], min(costs), True
+            if not moved:
+                break
+        return x
+
     def jacobian(self, x: np.ndarray, pool: Threads) -> np.ndarray:
         """Forward differences, one simulation per parameter in parallel (backward at a bound)."""
         base = self.residual_at(x)
@@ -309,9 +379,15 @@ class _Problem:
         r = self._residual(sims)
         self._last = (np.array(x, dtype=float), r)
         J = self.jacobian(x, pool)
-        cov_x = self.covariance(x, r, J, pool)
         p = len(self.parameters)
-        cov_x = cov_x[:p, :p]
+        cost = float(r @ r)
+        variance = cost / max(len(r) - len(x), 1)
+        H = self.hessian(x, cost, variance, J, pool)
+        cov_x = 2.0 * variance * self._inverse(H, J)[:p, :p]
+        conditional = np.sqrt(2.0 * variance / np.maximum(np.diag(H)[:p], 1e-300))
+        reach = self.profile_reach(x, cost, variance, conditional, pool)
+        widen = np.maximum(1.0, reach / (1.96 * conditional))
+        cov_x = cov_x * np.outer(widen, widen)
         starts = np.array([p.start for p in self.parameters])
         std = np.sqrt(np.clip(np.diag(cov_x), 0.0, None)) * np.abs(starts)
         scale = np.sqrt(np.clip(np.diag(cov_x), 1e-300, None))
@@ -321,34 +397,69 @@ class _Problem:
         return Identification(
             self.parameters, values, std, correlation, self._rms(sims),
             {k: v for scales in self.scales for k, v in scales.items()},
-            tuple(_warnings(self.parameters, values, std, correlation, J)),
+            tuple(_warnings(self.parameters, values, std, correlation, J, widen)),
             self.fitted_spec(x), tuple(sims), self.experiments, self.evaluations)
 
-    def covariance(self, x: np.ndarray, r: np.ndarray, J: np.ndarray,
-                   pool: Threads) -> np.ndarray:
-        """Covariance of x (module docstring): 2 s² H⁻¹, widened by the roughness."""
-        cost = float(r @ r)
-        variance = cost / max(len(r) - len(x), 1)
+    def hessian(self, x: np.ndarray, cost: float, variance: float, J: np.ndarray,
+                pool: Threads) -> np.ndarray:
+        """The cost's Hessian in x (module docstring): secants on the axes, correlations from the
+        Gauss-Newton Hessian 2 JᵀJ."""
         gauss_newton = 2.0 * J.T @ J
         guess = np.sqrt(np.clip(np.diag(variance * 2.0 * np.linalg.pinv(gauss_newton)), 0.0, None))
-        rough = self.roughness(x, cost, guess, pool) / variance
-        curvature = self.curvature(x, cost, variance, guess, max(RISE, 4.0 * rough), pool)
+        curvature = self.curvature(x, cost, variance, guess, RISE, pool)
         diagonal = np.sqrt(np.clip(np.diag(gauss_newton), 1e-300, None))
         correlation = gauss_newton / np.outer(diagonal, diagonal)
         root = np.sqrt(np.clip(curvature, 0.0, None))
-        H = correlation * np.outer(root, root)
-        widen = (CHI2 + 2.0 * rough) / CHI2
-        return 2.0 * variance * widen * self._inverse(H, J)
+        return np.asarray(correlation * np.outer(root, root))
 
-    def roughness(self, x: np.ndarray, cost: float, guess: np.ndarray, pool: Threads) -> float:
-        """How much the cost jumps for moves of about one standard deviation (stick/slip makes
-        it step, not slope): the upper quartile of |cost change| at random such moves."""
-        rng = np.random.default_rng(0)
+    def profile_reach(self, x: np.ndarray, cost: float, variance: float, sigma: np.ndarray,
+                      pool: Threads) -> np.ndarray:
+        """Per parameter, how far (in x) its value can move, the others held, before the data
+        reject it: the cost is walked along each axis in steps of half its conditional standard
+        deviation ``sigma`` (p,) until it stays above the lowest cost + 3.84 s² + 2ρ. ρ is the
+        largest spike or dip on any axis's walk (a cost above or below both its neighbours, one of
+        the three within the accepted costs):
+        zero on a smooth valley, else the height of the steps stick/slip puts in the cost (a
+        joint that sticks one plant step earlier), by which the true values may sit above the
+        best. The walks are taken again once every axis has given its spikes."""
+        walks: list[dict[float, float]] = [{0.0: cost} for _ in sigma]
+
+        def threshold() -> float:
+            lowest = min(min(w.values()) for w in walks)
+            gap = CHI2 * variance
+            for _ in range(8):  # spikes that start inside the accepted costs widen them
+                wider = CHI2 * variance + 2.0 * max(_spikes(w, lowest + gap) for w in walks)
+                if wider == gap:
+                    break
+                gap = wider
+            return lowest + gap
+
+        for _ in range(2):
+            for i, walked in enumerate(walks):
+                for side in (-1.0, 1.0):
+                    self._walk(x, i, side * 0.5 * sigma[i], walked, threshold, pool)
+        limit = max(threshold(), cost + CHI2 * variance)  # the fit itself is never rejected
+        return np.array([max(abs(d) for d, c in w.items() if c <= limit) for w in walks])
+
+    def _walk(self, x: np.ndarray, i: int, step: float, walked: dict[float, float],
+              threshold: Callable[[], float], pool: Threads) -> None:
+        """Extend axis i's walk in batches of 8 steps, in the pool: ``step`` (signed) in the first
+        batch, twice as long in each next one; until its three furthest costs exceed the
+        threshold, a bound, or :data:`PROFILE_BATCHES`."""
         lower, upper = self.bounds()
-        points = [np.clip(x + guess * rng.choice([-1.0, 1.0], size=len(x)) * 0.5, lower, upper)
-                  for _ in range(max(4, 2 * len(x)))]
-        costs = np.array([float(v @ v) for v in self.residuals(points, pool)])
-        return float(np.percentile(np.abs(costs - cost), 75))
+        for _ in range(PROFILE_BATCHES):
+            done = sorted((d for d in walked if d * step > 0), key=abs)
+            if len(done) >= 3 and all(walked[d] > threshold() for d in done[-3:]):
+                return
+            if len(done) >= 8 * PROFILE_BATCHES:
+                return
+            last = done[-1] if done else 0.0
+            steps = last + step * 2.0 ** (len(done) // 8) * np.arange(1, 9)
+            steps = steps[(x[i] + steps > lower[i]) & (x[i] + steps < upper[i])]
+            if not len(steps):
+                return
+            points = [np.where(np.arange(len(x)) == i, x[i] + d, x) for d in steps]
+            walked.update(zip(steps.tolist(), (float(v @ v) for v in self.residuals(points, pool))))
 
     def curvature(self, x: np.ndarray, cost: float, variance: float, guess: np.ndarray,
                   rise_target: float, pool: Threads) -> np.ndarray:
@@ -401,6 +512,18 @@ class _Problem:
         return {s: math.sqrt(float(np.mean(v))) for s, v in squares.items()}
 
 
+def _spikes(walked: dict[float, float], ceiling: float) -> float:
+    """The largest cost above or below both its neighbours along a walk, among the triples that
+    reach down to ``ceiling`` (0 when none)."""
+    costs = np.array([walked[d] for d in sorted(walked)])
+    if len(costs) < 3:
+        return 0.0
+    middle, around = costs[1:-1], np.column_stack([costs[:-2], costs[2:]])
+    near = np.minimum(middle, around.min(axis=1)) <= ceiling
+    heights = np.maximum(middle - around.max(axis=1), around.min(axis=1) - middle)[near]
+    return float(max(heights.max(initial=0.0), 0.0))
+
+
 def _order(key: tuple[str, str]) -> tuple[int, str]:
     from maniplab.identification.data import MEASURABLE
 
@@ -438,13 +561,13 @@ def _start(plant: Any, e: Experiment, offsets: dict[tuple[str, str], float]) -> 
 
 
 def _warnings(parameters: Sequence[Parameter], values: np.ndarray, std: np.ndarray,
-              correlation: np.ndarray, J: np.ndarray) -> list[str]:
+              correlation: np.ndarray, J: np.ndarray, widen: np.ndarray) -> list[str]:
     out = []
-    friction = [p.path for p in parameters if ".friction." in p.path]
-    if friction:
-        out.append(f"{', '.join(friction)}: stick/slip makes the fit's cost rough, so it may stop "
-                   "short of the best values with intervals too narrow (work in progress): fit "
-                   "again from other starts (--set) and compare")
+    widened = [f"{p.path} (×{w:.2g})" for p, w in zip(parameters, widen) if w > WIDENED]
+    if widened:
+        out.append(f"the cost steps where joints stick one plant step earlier or later, so these "
+                   f"intervals were widened to the values the data cannot reject: "
+                   f"{', '.join(widened)}")
     for i, p in enumerate(parameters):
         if not np.any(J[:, i]):
             out.append(f"{p.path} has no effect on the measured signals: it cannot be fitted "
