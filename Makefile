@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test lint docs clean
+.PHONY: demo test lint docs clean browser
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -22,8 +22,14 @@ lint: $(STAMP)
 	$(BIN)/ruff check src tests examples benchmarks
 	$(BIN)/mypy
 
-test: lint
+test: lint browser
 	$(BIN)/python -m pytest -n 2
+
+# the GUI's tests drive a real headless browser: Debian's chromium and its driver
+browser:
+	@test -x /usr/bin/chromedriver || { [ "$$(id -u)" = 0 ] && apt-get update -qq && \
+	  apt-get install -y -qq chromium chromium-driver >/dev/null; } || \
+	  { echo "make test needs chromium and chromium-driver: sudo apt-get install chromium chromium-driver" >&2; exit 1; }
 
 # the documentation site in site/, offline and strict (tests/test_docs.py builds it too)
 docs: $(STAMP)

@@ -9,9 +9,11 @@ stream of short steps writes a status line every :data:`STATUS_EVERY` seconds.
 
 from __future__ import annotations
 
+import contextlib
 import sys
 import threading
 import time
+from collections.abc import Callable, Iterator
 from typing import TextIO
 
 from tqdm import tqdm
@@ -21,6 +23,24 @@ LINE_AFTER = 1.0
 
 STATUS_EVERY = 10.0
 """Interval (s) of the status lines of a run of short steps in a log."""
+
+
+Listener = Callable[[str, float], None]
+"""``listener(label, fraction)``: a bar named ``label`` is ``fraction`` (0..1) done."""
+
+_local = threading.local()
+
+
+@contextlib.contextmanager
+def listening(listener: Listener) -> Iterator[None]:
+    """Send the progress of every bar made in this thread, inside the block, to ``listener`` as
+    well (the GUI's progress bar listens to the simulations it starts)."""
+    outer = getattr(_local, "listener", None)
+    _local.listener = listener
+    try:
+        yield
+    finally:
+        _local.listener = outer
 
 
 class Progress:
@@ -41,6 +61,8 @@ class Progress:
         self._lines = _Lines(label, max(total, 1), stream) if enabled is None and not tty else None
         self._bar = tqdm(total=max(total, 1), desc=label, file=stream, disable=not self.enabled,
                          dynamic_ncols=True, leave=True)
+        self._label, self._total, self._done = label, max(total, 1), 0
+        self._listener: Listener | None = getattr(_local, "listener", None)
 
     def start(self, what: str) -> None:
         """A stage begins (shown after the bar; in a log, announced if it lasts)."""
@@ -56,6 +78,9 @@ class Progress:
         if self._lines:
             self._lines.step(what)
         self._bar.update()
+        self._done += 1
+        if self._listener is not None:
+            self._listener(self._label, min(self._done / self._total, 1.0))
 
     def close(self) -> None:
         """Finish the bar (on a terminal: end its line)."""

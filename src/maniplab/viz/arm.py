@@ -87,7 +87,7 @@ class ArmView:
             if geom.objtype not in (mujoco.mjtObj.mjOBJ_GEOM, mujoco.mjtObj.mjOBJ_TENDON):
                 continue
             rgba = tint if geom.objtype == mujoco.mjtObj.mjOBJ_TENDON else \
-                self._rgba(geom.objid, modes, tint)
+                self.geom_colour(geom.objid, modes, tint)
             if rgba is not None:
                 geom.rgba[:] = rgba
             if tint is not None:
@@ -96,7 +96,10 @@ class ArmView:
                 geom.castshadow = 0
                 geom.size[:] = geom.size * _GHOST_GROWTH
 
-    def _rgba(self, geom: int, modes: np.ndarray, tint: palette.RGBA | None) -> palette.RGBA | None:
+    def geom_colour(self, geom: int, modes: np.ndarray,
+                    tint: palette.RGBA | None = None) -> palette.RGBA | None:
+        """Colour of model geom ``geom`` with joint ``modes`` (shape (n,)): a joint's state colour,
+        else ``tint``, else its link's colour; None keeps the model's own."""
         joint = self._joint_of[geom]
         if joint != _NO_OBJECT:
             state = palette.JOINT_STATES.get(int(modes[joint]))

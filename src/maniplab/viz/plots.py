@@ -48,8 +48,9 @@ def compare(runs: Sequence[Run], signals: Sequence[str] = ("q",),
 
     Args:
         runs: the runs (at least one).
-        signals: signal names (``q``, ``qd``, ``dP``, ``iv``, ``tau_fric``, ``mode``, ...) and
-            ``ee_path`` for the end-effector path; one row of subplots each.
+        signals: signal names (``q``, ``qd``, ``dP``, ``iv``, ``tau_fric``, ``mode``, ...),
+            ``ee_path`` for the end-effector path and ``tracking_error`` for the distance from
+            the controller's reference (closed-loop runs); one row of subplots each.
         joints: joint names for the columns of per-joint signals (default: every joint where the
             first per-joint signal is finite and changes in some run).
         labels: legend entries (default: the parameters that differ between the runs).
@@ -61,7 +62,8 @@ def compare(runs: Sequence[Run], signals: Sequence[str] = ("q",),
     if not runs:
         raise PlotError("no runs to plot")
     spec = runs[0].spec
-    names = list(joints) if joints else _active_joints(runs, [s for s in signals if s != "ee_path"])
+    names = list(joints) if joints else _active_joints(runs, [s for s in signals
+                                                              if s not in WHOLE_ARM])
     for name in names:
         spec.joint(name)  # raises SpecError naming the valid joints
     labels = list(labels) if labels else params.labels(
@@ -72,8 +74,8 @@ def compare(runs: Sequence[Run], signals: Sequence[str] = ("q",),
         fig = Figure(figsize=(2.8 * ncols + 0.6, 2.1 * len(signals)), layout="constrained")
         axes = fig.subplots(len(signals), ncols, squeeze=False)
         for row, signal in enumerate(signals):
-            if signal == "ee_path":
-                _plot_path(fig, axes[row], runs, labels)
+            if signal in WHOLE_ARM:
+                WHOLE_ARM[signal](fig, axes[row], runs, labels)
             else:
                 for col, name in enumerate(names):
                     _plot_joint(axes[row, col], runs, labels, signal, spec.joint_index(name))
@@ -116,6 +118,22 @@ def _plot_joint(ax, runs: Sequence[Run], labels: Sequence[str], signal: str, j: 
         ax.set_yticks([m.value for m in FrictionMode], [m.name for m in FrictionMode])
 
 
+def _plot_error(fig: Figure, row_axes: np.ndarray, runs: Sequence[Run],
+                labels: Sequence[str]) -> None:
+    """Distance of the end-effector from the controller's reference, mm, over time."""
+    for ax in row_axes[1:]:
+        fig.delaxes(ax)
+    ax = row_axes[0]
+    for k, (run, label) in enumerate(zip(runs, labels)):
+        if "e_x" not in run:
+            raise PlotError(f"run {run.label!r} has no tracking error: it is not a closed-loop run")
+        error = np.linalg.norm(np.asarray(run["e_x"], dtype=float)[:, :3], axis=1) * 1e3
+        ax.plot(run.t, error, color=f"C{k}", label=label, linestyle=_DASHES[k % len(_DASHES)])
+    ax.set_title("tracking error")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("|x_d - x| [mm]")
+
+
 def _plot_path(fig: Figure, row_axes: np.ndarray, runs: Sequence[Run], labels: Sequence[str]) -> None:
     """End-effector path projected on the two base axes along which it moves most."""
     for ax in row_axes[1:]:
@@ -142,3 +160,7 @@ def save_figure(fig: Figure, path: str | os.PathLike[str]) -> Path:
     with atomic_path(path) as tmp, matplotlib.rc_context(_STYLE):
         fig.savefig(tmp, format=fmt)
     return path
+
+
+WHOLE_ARM = {"ee_path": _plot_path, "tracking_error": _plot_error}
+"""Signals drawn as one plot for the whole arm (not one per joint)."""

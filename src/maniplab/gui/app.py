@@ -1,0 +1,136 @@
+"""The GUI: a local web page with four tabs on one 3D scene (viser: a Python-driven three.js
+page over a websocket).
+
+* Configure: the arm as a table of joints, edited field by field; the 3D arm follows.
+* Simulate: inputs per joint, the headline parameters, Run / Stop; a closed-loop move to a target.
+* Runs: the stored runs (rename, delete) and their signals overlaid.
+* Watch: runs replayed in 3D with a timeline; exported as an offline HTML page.
+
+Every action calls the public API the command line calls (``simulate``, ``run_move``,
+``to_mjcf``, ``export_model``, ``viz.plots.compare``); the GUI adds only the page. Its widgets
+live on the server and are shared by every tab of the browser, so two tabs show the same state.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import threading
+from collections.abc import Callable
+from pathlib import Path
+
+from maniplab.gui.workspace import Workspace
+from maniplab.spec import ManipulatorSpec
+
+LOCALHOST = ("127.0.0.1", "localhost", "::1")
+
+
+class Gui:
+    """The server and its page.
+
+    Args:
+        spec: the arm shown first.
+        workspace: the folder the page reads and writes (:class:`Workspace`).
+        host: interface to listen on (default localhost only).
+        port: TCP port (the next free one above it when taken).
+    """
+
+    def __init__(self, spec: ManipulatorSpec, workspace: str | Path, *, host: str = "127.0.0.1",
+                 port: int = 8080) -> None:
+        import viser
+
+        from maniplab.gui.configure import ConfigureTab
+        from maniplab.gui.jobs import Jobs
+        from maniplab.gui.runs import RunsTab
+        from maniplab.gui.simulate import SimulateTab
+        from maniplab.gui.watch import WatchTab
+
+        self.workspace = Workspace(workspace)
+        self.spec = spec
+        self.lock = threading.RLock()  # callbacks come from viser's thread pool
+        self._spec_listeners: list[Callable[[], None]] = []
+        self._run_listeners: list[Callable[[], None]] = []
+        with contextlib.redirect_stdout(io.StringIO()):  # viser's banner: we print our own
+            self.server = viser.ViserServer(host=host, port=port, label="maniplab", verbose=False)
+        gui = self.server.gui
+        gui.configure_theme(control_width="large", show_logo=False, show_share_button=False)
+        self.jobs = Jobs(self._report)
+        with gui.add_folder("Job", order=0):
+            self.status = gui.add_markdown("idle")
+            self.progress = gui.add_progress_bar(0.0, visible=False)
+            self.stop_button = gui.add_button("Stop", color="red", hint="stop the running job; "
+                                              "nothing of it is stored")
+        self.stop_button.on_click(lambda _: self.jobs.stop())
+        tabs = gui.add_tab_group(order=1)
+        with tabs.add_tab("Configure"):
+            self.configure = ConfigureTab(self)
+        with tabs.add_tab("Simulate"):
+            self.simulate = SimulateTab(self)
+        with tabs.add_tab("Runs"):
+            self.runs = RunsTab(self)
+        with tabs.add_tab("Watch"):
+            self.watch = WatchTab(self)
+
+    @property
+    def url(self) -> str:
+        """The page's address."""
+        host = self.server.get_host()
+        shown = "127.0.0.1" if host in ("0.0.0.0", "::") else host
+        return f"http://{shown}:{self.server.get_port()}"
+
+    # --- shared state ---------------------------------------------------------------------------
+
+    def on_spec(self, listener: Callable[[], None]) -> None:
+        """Call ``listener()`` after the arm changes."""
+        self._spec_listeners.append(listener)
+
+    def on_runs(self, listener: Callable[[], None]) -> None:
+        """Call ``listener()`` after the stored runs change."""
+        self._run_listeners.append(listener)
+
+    def set_spec(self, spec: ManipulatorSpec) -> None:
+        """Make ``spec`` (valid) the arm of every tab."""
+        with self.lock:
+            self.spec = spec
+            for listener in self._spec_listeners:
+                listener()
+
+    def runs_changed(self) -> None:
+        """Tell every tab that runs were stored, renamed or deleted."""
+        with self.lock:
+            for listener in self._run_listeners:
+                listener()
+
+    def say(self, text: str) -> None:
+        """Show one status line."""
+        self.status.content = text
+
+    def _report(self, text: str, fraction: float | None) -> None:
+        self.status.content = text
+        self.progress.visible = fraction is not None
+        if fraction is not None:
+            self.progress.value = round(100.0 * fraction, 1)
+
+    def download(self, name: str, suffix: str, content: str | bytes) -> Path:
+        """Keep ``content`` in the workspace's exports and send it to the browsers as a download;
+        returns the file."""
+        path = self.workspace.export(name, suffix, content)
+        self.server.send_file_download(path.name, path.read_bytes())
+        return path
+
+    def close(self) -> None:
+        """Stop the running job and the server."""
+        self.jobs.stop()
+        with contextlib.redirect_stdout(io.StringIO()):
+            self.server.stop()
+
+
+def serve(spec: ManipulatorSpec, workspace: str | Path, *, host: str = "127.0.0.1",
+          port: int = 8080) -> Gui:
+    """Start the GUI server (it runs in background threads until :meth:`Gui.close`)."""
+    return Gui(spec, workspace, host=host, port=port)
+
+
+def exposed(host: str) -> bool:
+    """Whether ``host`` lets other machines reach the page."""
+    return host not in LOCALHOST

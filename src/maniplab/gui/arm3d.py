@@ -1,0 +1,143 @@
+"""An arm in a viser (three.js) scene: one mesh per MuJoCo geom, posed from joint positions.
+
+The geometry is the MuJoCo model's (:class:`~maniplab.viz.arm.ArmView`): the same boxes,
+capsules and cylinders the videos show, placed by MuJoCo's own forward kinematics, and coloured
+as the videos colour them (links per index; a joint blue while it sticks, red at a limit).
+Hydraulic cylinders pinned to the links are drawn as thick lines along their tendons.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import mujoco
+import numpy as np
+import trimesh
+
+from maniplab.friction.modes import FrictionMode
+from maniplab.spec import ManipulatorSpec
+from maniplab.viz import palette
+from maniplab.viz.arm import ArmView
+
+_SEGMENTS = 24  # facets around a cylinder or capsule
+_TENDON_WIDTH = 0.08  # m
+
+
+def geom_mesh(model: Any, geom: int) -> trimesh.Trimesh | None:
+    """The surface of MuJoCo geom ``geom`` in its own frame (m), or None for a plane."""
+    kind, size = int(model.geom_type[geom]), model.geom_size[geom]
+    t = mujoco.mjtGeom
+    if kind == t.mjGEOM_BOX:
+        return trimesh.creation.box(extents=2.0 * size)
+    if kind == t.mjGEOM_CAPSULE:
+        return trimesh.creation.capsule(height=2.0 * size[1], radius=size[0], count=[_SEGMENTS, 8])
+    if kind == t.mjGEOM_CYLINDER:
+        return trimesh.creation.cylinder(radius=size[0], height=2.0 * size[1], sections=_SEGMENTS)
+    if kind in (t.mjGEOM_SPHERE, t.mjGEOM_ELLIPSOID):
+        sphere = trimesh.creation.icosphere(subdivisions=2, radius=1.0)
+        sphere.apply_scale(size if kind == t.mjGEOM_ELLIPSOID else size[0])
+        return sphere
+    if kind == t.mjGEOM_MESH:
+        mesh = int(model.geom_dataid[geom])
+        v0, nv = model.mesh_vertadr[mesh], model.mesh_vertnum[mesh]
+        f0, nf = model.mesh_faceadr[mesh], model.mesh_facenum[mesh]
+        return trimesh.Trimesh(model.mesh_vert[v0:v0 + nv], model.mesh_face[f0:f0 + nf],
+                               process=False)
+    return None
+
+
+def _rgb(colour: palette.RGBA | np.ndarray) -> tuple[int, int, int]:
+    return palette.to_uint8(tuple(float(c) for c in colour[:4]))  # type: ignore[arg-type]
+
+
+class Arm3D:
+    """One arm drawn under scene node ``prefix``.
+
+    Args:
+        scene: a viser scene API (``server.scene``).
+        prefix: scene-tree name of the arm, e.g. ``"/arm"``.
+        spec: the arm.
+        tint: draw the arm as a translucent ghost of this colour (joint states still shown).
+    """
+
+    def __init__(self, scene: Any, prefix: str, spec: ManipulatorSpec,
+                 tint: palette.RGBA | None = None) -> None:
+        self.view = ArmView(spec)
+        self.prefix, self.tint = prefix, tint
+        model = self.view.model
+        opacity = palette.GHOST_ALPHA if tint is not None else 1.0
+        self._meshes: list[tuple[int, Any]] = []
+        self._colours: dict[int, tuple[int, int, int]] = {}
+        rest = np.full(spec.n, int(FrictionMode.SLIP))
+        for geom in range(model.ngeom):
+            surface = geom_mesh(model, geom)
+            if surface is None:
+                continue
+            colour = self._colour(geom, rest)
+            handle = scene.add_mesh_simple(
+                f"{prefix}/{model.geom(geom).name or f'geom{geom}'}",
+                vertices=np.asarray(surface.vertices, dtype=np.float32),
+                faces=np.asarray(surface.faces, dtype=np.uint32), color=colour,
+                opacity=opacity if opacity < 1.0 else None, flat_shading=False)
+            self._meshes.append((geom, handle))
+            self._colours[geom] = colour
+        self._tendons = None
+        if model.ntendon:
+            self._tendons = scene.add_line_segments(
+                f"{prefix}/cylinders", points=np.zeros((model.ntendon, 2, 3), dtype=np.float32),
+                colors=_rgb(tint or (0.35, 0.37, 0.40, 1.0)), thickness=_TENDON_WIDTH)
+
+    def _colour(self, geom: int, modes: np.ndarray) -> tuple[int, int, int]:
+        own = self.view.geom_colour(geom, modes, self.tint)
+        if own is not None:
+            return _rgb(own)
+        model = self.view.model
+        material = int(model.geom_matid[geom])
+        return _rgb(model.mat_rgba[material] if material >= 0 else model.geom_rgba[geom])
+
+    def pose(self, q: np.ndarray, modes: np.ndarray | None = None) -> None:
+        """Place the arm at joint positions ``q`` (shape (n,), rad or m) and colour its joints by
+        ``modes`` (:class:`FrictionMode` per joint, shape (n,); default: all slipping)."""
+        view = self.view
+        view.pose(np.asarray(q, dtype=float))
+        modes = np.full(view.spec.n, int(FrictionMode.SLIP)) if modes is None else modes
+        quat = np.empty(4)
+        for geom, handle in self._meshes:
+            mujoco.mju_mat2Quat(quat, view.data.geom_xmat[geom])
+            handle.position = view.data.geom_xpos[geom].copy()
+            handle.wxyz = quat.copy()
+            colour = self._colour(geom, modes)
+            if colour != self._colours[geom]:
+                handle.color = colour
+                self._colours[geom] = colour
+        if self._tendons is not None:
+            self._tendons.points = _tendon_segments(view.model, view.data)
+
+    @property
+    def end_effector(self) -> np.ndarray:
+        """End-effector position in the current pose, m, shape (3,)."""
+        return self.view.end_effector_position
+
+    def set_visible(self, visible: bool) -> None:
+        """Show or hide the arm."""
+        for _, handle in self._meshes:
+            handle.visible = visible
+        if self._tendons is not None:
+            self._tendons.visible = visible
+
+    def remove(self) -> None:
+        """Take the arm out of the scene."""
+        for _, handle in self._meshes:
+            handle.remove()
+        if self._tendons is not None:
+            self._tendons.remove()
+
+
+def _tendon_segments(model: Any, data: Any) -> np.ndarray:
+    """First to last attachment point of each tendon, m, shape (ntendon, 2, 3)."""
+    segments = np.zeros((model.ntendon, 2, 3), dtype=np.float32)
+    for k in range(model.ntendon):
+        first, count = data.ten_wrapadr[k], data.ten_wrapnum[k]
+        if count >= 2:
+            segments[k] = data.wrap_xpos[first:first + count].reshape(-1, 3)[[0, count - 1]]
+    return segments

@@ -1,0 +1,378 @@
+"""The Configure tab: the arm as a table of joints in the paper's vocabulary, edited field by field.
+
+Every field is a YAML value set through :meth:`ManipulatorSpec.with_overrides`, so every rule of a
+spec file holds (a body's COG and inertia left at their defaults follow its length and mass). A bad
+value shows the spec's one-line error under the field and changes nothing: the arm keeps its last
+valid state and the 3D view stays whole.
+"""
+
+from __future__ import annotations
+
+import html
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from maniplab.builtin import builtin_spec, builtin_specs
+from maniplab.errors import ManiplabError, SpecError
+from maniplab.gui.arm3d import Arm3D
+from maniplab.gui.replay import stage
+from maniplab.spec import ManipulatorSpec
+from maniplab.spec.yaml_io import dump_yaml, parse_yaml
+
+if TYPE_CHECKING:
+    from maniplab.gui.app import Gui
+
+ARM_FIELDS = (
+    ("name", "the arm's name"),
+    ("gravity", "m/s², [x, y, z]"),
+    ("end_effector.mass", "payload, kg"),
+    ("end_effector.offset", "payload centre from the last joint, m"),
+)
+JOINT_FIELDS = (
+    ("name", "joint name"),
+    ("type", "R (revolute) or Tr (translational)"),
+    ("axis", "x, y or z of the previous body's frame"),
+    ("limits", "[lower, upper], rad or m; blank: none"),
+    ("body.length", "m"),
+    ("body.direction", "unit vector [x, y, z]"),
+    ("body.mass", "kg"),
+    ("body.com", "COG, m, [x, y, z]; blank: the middle of the body"),
+    ("body.inertia", "kg·m² about the COG, [Ixx, Iyy, Izz, Ixy, Ixz, Iyz]; blank: a rod"),
+)
+_MODELS = ("python", "c", "latex", "markdown")
+_SUFFIX = {"python": ".py", "c": ".c", "latex": ".tex", "markdown": ".md"}
+
+
+def text_of(value: Any) -> str:
+    """A field's value as the page shows it: YAML in flow style (blank for None)."""
+    if value is None:
+        return ""
+    return dump_yaml(value).strip().removesuffix("...").strip()
+
+
+def value_of(text: str) -> Any:
+    """A field's text as a value (YAML; blank is None)."""
+    return parse_yaml(text)[0] if text.strip() else None
+
+
+def lookup(data: dict[str, Any], path: str) -> Any:
+    """The value at dotted ``path`` in nested dicts (None where a section is absent)."""
+    node: Any = data
+    for part in path.split("."):
+        node = node.get(part) if isinstance(node, dict) else None
+    return node
+
+
+class Field:
+    """A text input with its error line under it."""
+
+    def __init__(self, gui: Any, label: str, hint: str, value: str,
+                 apply: Any) -> None:
+        self.input = gui.add_text(label, value, hint=hint)
+        self.error = gui.add_markdown("", visible=False)
+        self.quiet = False
+        self.input.on_update(lambda _: None if self.quiet else apply(self))
+
+    def show(self, value: str) -> None:
+        """Set the text without applying it."""
+        self.quiet = True
+        try:
+            self.input.value = value
+        finally:
+            self.quiet = False
+
+    def fail(self, message: str | None) -> None:
+        """Show ``message`` under the field (None: hide the line)."""
+        self.error.content = f"**⚠ {html.escape(message)}**" if message else ""
+        self.error.visible = bool(message)
+
+    def remove(self) -> None:
+        self.input.remove()
+        self.error.remove()
+
+
+class ConfigureTab:
+    """The Configure tab of ``app``."""
+
+    def __init__(self, app: Gui) -> None:
+        self.app = app
+        self._quiet = False  # True while the page's widgets are set from the spec
+        gui = app.server.gui
+        self.builtin = gui.add_dropdown("Built-in arm", builtin_specs(),
+                                        initial_value=_initial(app.spec))
+        gui.add_button("Start from this built-in").on_click(lambda _: self.load_builtin())
+        self.table = gui.add_html("")
+        with gui.add_folder("Arm"):
+            self.arm_fields = [Field(gui, path, hint, "", self._apply_arm) for path, hint in
+                               ARM_FIELDS]
+        with gui.add_folder("Joint"):
+            self.joint = gui.add_dropdown("Joint", [j.name for j in app.spec.joints])
+            self.joint.on_update(lambda _: None if self._quiet else self._rebuild_fields())
+            self.body_on = gui.add_checkbox("Body mass on", True,
+                                            hint="off: the body weighs nothing (its mass is "
+                                                 "kept and comes back when on)")
+            self.body_on.on_update(lambda _: self._toggle_body())
+            with gui.add_folder("Structure", expand_by_default=False):
+                for label, action in (("Add joint after", self.add_joint),
+                                      ("Remove joint", self.remove_joint),
+                                      ("Move up", lambda: self.move_joint(-1)),
+                                      ("Move down", lambda: self.move_joint(1))):
+                    gui.add_button(label).on_click(_call(action))
+            self.fields_folder = gui.add_folder("Fields")
+        self.joint_fields: list[Field] = []
+        self._masses: dict[str, float] = {}  # body masses switched off, kg
+        self._select: str | None = None  # the joint to select after the next change
+        with gui.add_folder("Save and export", expand_by_default=False):
+            self.file_name = gui.add_text("Spec name", _safe(app.spec.name),
+                                          hint="saved as specs/NAME.yaml in the workspace")
+            gui.add_button("Save spec").on_click(lambda _: self.save())
+            gui.add_button("Download MJCF").on_click(lambda _: self.download_mjcf())
+            self.model_format = gui.add_dropdown("Analytic model", _MODELS)
+            gui.add_button("Download analytic model").on_click(lambda _: self.download_model())
+        self.arm3d: Arm3D | None = None
+        app.on_spec(self.refresh)
+        self.refresh()
+
+    # --- showing the arm ------------------------------------------------------------------------
+
+    def refresh(self) -> None:
+        """Show the current arm: table, fields, 3D view. The fields are rebuilt only when the
+        selected joint's set of fields changed, so a field being typed in keeps its focus."""
+        spec = self.app.spec
+        self.table.content = joint_table(spec)
+        data = spec.to_dict()
+        for field, (path, _) in zip(self.arm_fields, ARM_FIELDS):
+            field.show(text_of(lookup(data, path)))
+        names = [j.name for j in spec.joints]
+        wanted = self._select or self.joint.value
+        self._select = None
+        self._quiet = True
+        try:
+            if list(self.joint.options) != names:
+                self.joint.options = names
+            self.joint.value = wanted if wanted in names else names[0]
+        finally:
+            self._quiet = False
+        if [f.input.label for f in self.joint_fields] != [p for p, _ in self._paths()]:
+            self._rebuild_fields()
+        else:
+            self._sync_values()
+        self._draw()
+
+    def _paths(self) -> list[tuple[str, str]]:
+        """The fields of the selected joint: path, hint."""
+        spec = self.app.spec
+        joint = spec.to_dict()["joints"][spec.joint_index(self.joint.value)]
+        return [*JOINT_FIELDS, *_leaves(joint, "actuator"), *_leaves(joint, "friction")]
+
+    def _draw(self) -> None:
+        spec = self.app.spec
+        server = self.app.server
+        if self.arm3d is not None:
+            self.arm3d.remove()
+        stage(server, [spec])
+        self.arm3d = Arm3D(server.scene, "/arm", spec)
+        self.arm3d.pose(home(spec))
+
+    def _rebuild_fields(self) -> None:
+        for field in self.joint_fields:
+            field.remove()
+        spec = self.app.spec
+        joint = spec.to_dict()["joints"][spec.joint_index(self.joint.value)]
+        with self.fields_folder:
+            self.joint_fields = [Field(self.app.server.gui, path, hint,
+                                       text_of(lookup(joint, path)), self._apply_joint)
+                                 for path, hint in self._paths()]
+        self.body_on.value = self.joint.value not in self._masses
+
+    # --- editing --------------------------------------------------------------------------------
+
+    def _apply_arm(self, field: Field) -> None:
+        self._apply(field, field.input.label)
+
+    def _apply_joint(self, field: Field) -> None:
+        self._apply(field, f"joints.{self.joint.value}.{field.input.label}")
+
+    def _apply(self, field: Field, path: str) -> None:
+        try:
+            value = value_of(field.input.value)
+            spec = self.app.spec.with_overrides({path: value})
+        except ManiplabError as exc:
+            field.fail(str(exc))
+            return
+        field.fail(None)
+        if path == f"joints.{self.joint.value}.name":
+            self._select = str(value)
+        self.app.set_spec(spec)
+
+    def _sync_values(self) -> None:
+        """Show the values that followed an edit (a COG follows its body's length)."""
+        data = self.app.spec.to_dict()
+        joint = data["joints"][self.app.spec.joint_index(self.joint.value)]
+        for field in self.joint_fields:
+            field.show(text_of(lookup(joint, field.input.label)))
+
+    def _toggle_body(self) -> None:
+        name = self.joint.value
+        spec = self.app.spec
+        joint = spec.joint(name)
+        if self.body_on.value and name in self._masses:
+            self.app.set_spec(spec.with_overrides(
+                {f"joints.{name}.body.mass": self._masses.pop(name)}))
+        elif not self.body_on.value and name not in self._masses and joint.body is not None:
+            self._masses[name] = joint.body.mass
+            self.app.set_spec(spec.with_overrides({f"joints.{name}.body.mass": 0.0}))
+
+    def _edit_joints(self, edit: Any) -> None:
+        """Apply ``edit(joints list, index of the selected joint) -> index to select``."""
+        data = self.app.spec.to_dict()
+        index = self.app.spec.joint_index(self.joint.value)
+        try:
+            selected = edit(data["joints"], index)
+            spec = ManipulatorSpec.from_dict(data, source=self.app.spec.source)
+        except ManiplabError as exc:
+            self.app.say(f"⚠ {exc}")
+            return
+        self._select = spec.joints[selected].name
+        self.app.set_spec(spec)
+
+    def add_joint(self) -> None:
+        """Insert a copy of the selected joint after it, under a new name."""
+        def edit(joints: list[dict[str, Any]], k: int) -> int:
+            taken = {j["name"] for j in joints}
+            copy = {**joints[k], "name": _fresh(joints[k]["name"], taken)}
+            joints.insert(k + 1, copy)
+            return k + 1
+        self._edit_joints(edit)
+
+    def remove_joint(self) -> None:
+        """Remove the selected joint (an arm keeps at least one)."""
+        def edit(joints: list[dict[str, Any]], k: int) -> int:
+            if len(joints) == 1:
+                raise SpecError("an arm needs at least one joint", joint=joints[k]["name"])
+            del joints[k]
+            return min(k, len(joints) - 1)
+        self._edit_joints(edit)
+
+    def move_joint(self, by: int) -> None:
+        """Move the selected joint ``by`` places along the chain."""
+        def edit(joints: list[dict[str, Any]], k: int) -> int:
+            to = min(max(k + by, 0), len(joints) - 1)
+            joints.insert(to, joints.pop(k))
+            return to
+        self._edit_joints(edit)
+
+    def load_builtin(self) -> None:
+        """Replace the arm by the built-in chosen."""
+        self._masses.clear()
+        spec = builtin_spec(self.builtin.value)
+        self.file_name.value = _safe(spec.name)
+        self.app.set_spec(spec)
+        self.app.say(f"loaded the built-in {spec.name}")
+
+    # --- saving ---------------------------------------------------------------------------------
+
+    def save(self) -> None:
+        """Write the spec into the workspace."""
+        try:
+            path = self.app.workspace.save_spec(self.app.spec, self.file_name.value)
+        except (ManiplabError, OSError) as exc:
+            self.app.say(f"⚠ {exc}")
+            return
+        self.app.say(f"saved {path}")
+
+    def download_mjcf(self) -> None:
+        """Send the arm's MJCF to the browser."""
+        from maniplab.mjcf_gen import to_mjcf
+
+        try:
+            path = self.app.download(_safe(self.app.spec.name), ".xml", to_mjcf(self.app.spec))
+        except (ManiplabError, OSError) as exc:
+            self.app.say(f"⚠ {exc}")
+            return
+        self.app.say(f"MJCF written to {path} and sent to the browser")
+
+    def download_model(self) -> None:
+        """Derive the analytic model in the chosen format (a job: it can take seconds) and send it."""
+        from maniplab.model.export import export_model
+
+        spec, fmt = self.app.spec, self.model_format.value
+
+        def done(text: str) -> str:
+            path = self.app.download(f"{_safe(spec.name)}_model", _SUFFIX[fmt], text)
+            return f"analytic model written to {path} and sent to the browser"
+
+        self.app.jobs.start(f"deriving the {fmt} model", lambda: export_model(spec, fmt, []),
+                            done)
+
+
+def _call(action: Callable[[], None]) -> Callable[[Any], None]:
+    """A click handler calling ``action()``."""
+    return lambda _: action()
+
+
+def home(spec: ManipulatorSpec) -> np.ndarray:
+    """The pose shown while configuring: every joint at 0, or at its nearest limit."""
+    q = np.zeros(spec.n)
+    for j, joint in enumerate(spec.joints):
+        if joint.limits is not None:
+            q[j] = min(max(0.0, joint.limits[0]), joint.limits[1])
+    return q
+
+
+def joint_table(spec: ManipulatorSpec) -> str:
+    """The joints as an HTML table in the paper's vocabulary."""
+    head = ("joint", "R/Tr", "axis", "length m", "unit vector", "mass kg", "COG m",
+            "inertia kg·m²", "limits", "actuator", "friction Fc/Fs/Fv")
+    rows = []
+    for joint in spec.joints:
+        body = joint.body
+        cells = (joint.name, "R" if joint.type.value == "R" else "Tr", joint.axis.value,
+                 _g(body.length) if body else "–", _v(body.direction) if body else "–",
+                 _g(body.mass) if body else "0", _v(body.com) if body and body.com else "–",
+                 _v(body.inertia[:3]) if body and body.inertia else "–",
+                 _v(joint.limits) if joint.limits else "none", _actuator(joint),
+                 "/".join(_g(x) for x in (joint.friction.coulomb, joint.friction.static,
+                                          joint.friction.viscous)))
+        rows.append("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in cells) + "</tr>")
+    style = ("<style>.ml-joints{border-collapse:collapse;font-size:11px}"
+             ".ml-joints td,.ml-joints th{border:1px solid #ccc;padding:1px 4px}</style>")
+    header = "".join(f"<th>{html.escape(h)}</th>" for h in head)
+    payload = (f"<p style='font-size:11px'>payload {_g(spec.end_effector.mass)} kg, gravity "
+               f"{_v(spec.gravity)} m/s²</p>")
+    return (f"{style}<table class='ml-joints' id='ml-joints'><tr>{header}</tr>{''.join(rows)}"
+            f"</table>{payload}")
+
+
+def _actuator(joint: Any) -> str:
+    kind = getattr(joint.actuator, "type", None) or type(joint.actuator).__name__
+    return str(getattr(kind, "value", kind))
+
+
+def _g(x: float) -> str:
+    return f"{x:.4g}"
+
+
+def _v(values: Any) -> str:
+    return "[" + ", ".join(_g(float(x)) for x in values) + "]"
+
+
+def _leaves(joint: dict[str, Any], section: str) -> list[tuple[str, str]]:
+    return [(f"{section}.{key}", f"{section} parameter (YAML)") for key in joint.get(section) or {}]
+
+
+def _fresh(name: str, taken: set[str]) -> str:
+    return next(f"{name}_{k}" for k in range(2, len(taken) + 3) if f"{name}_{k}" not in taken)
+
+
+def _safe(name: str) -> str:
+    """``name`` as a workspace file name."""
+    cleaned = "".join(c if c.isalnum() or c in "-_" else "_" for c in name)[:64]
+    return cleaned or "arm"
+
+
+def _initial(spec: ManipulatorSpec) -> str:
+    names = builtin_specs()
+    return spec.name if spec.name in names else names[0]

@@ -1,0 +1,178 @@
+"""Runs replayed in 3D: the first run solid, the others as ghosts in their comparison colours, each
+joint coloured by its stick/slip/limit state, the end-effector paths traced.
+
+The same :class:`Replay` drives the GUI's Watch tab (frame by frame, from the timeline) and the
+self-contained HTML replays (:func:`replay_html`): viser records every scene update with its
+time, and its player (three.js, inlined in the page with the recording) plays them back with
+play, pause, a scrubbing slider and a speed control. The page needs no network and no server.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import math
+from collections.abc import Iterator, Sequence
+from typing import Any
+
+import numpy as np
+
+from maniplab.errors import ManiplabError
+from maniplab.gui.arm3d import Arm3D
+from maniplab.sim.run import Run
+from maniplab.spec import ManipulatorSpec
+from maniplab.viz import palette
+from maniplab.viz.timeline import Motion, frame_times, run_span, sample
+
+PATH_WIDTH = 0.03
+"""Width of a traced end-effector path, m."""
+
+MAX_FRAMES = 3000
+"""Frames a replay holds at most (100 s at 30 fps): an HTML replay stays a few megabytes."""
+
+
+class ReplayError(ManiplabError):
+    """Runs that cannot be replayed (none, or no samples)."""
+
+
+class Replay:
+    """Runs in one scene, shown at frame times ``t0 + k / fps``.
+
+    Args:
+        scene: a viser scene API.
+        runs: the runs (at least one); run k > 0 is drawn as a ghost of colour ``run_colour(k)``.
+        fps: frames per second of run time, 1/s (lowered so that at most :data:`MAX_FRAMES`).
+        prefix: scene-tree name under which the arms go.
+    """
+
+    def __init__(self, scene: Any, runs: Sequence[Run], fps: float = 30.0,
+                 prefix: str = "/replay") -> None:
+        if not runs:
+            raise ReplayError("no runs to replay: select at least one")
+        try:
+            t0, t1 = run_span(list(runs))
+        except ManiplabError as exc:
+            raise ReplayError(str(exc)) from None
+        fps = min(fps, (MAX_FRAMES - 1) / max(t1 - t0, 1e-9))
+        self.fps = fps
+        self.times = frame_times(t0, t1, fps)
+        self.motions: list[Motion] = [sample(run, self.times) for run in runs]
+        self.arms = [Arm3D(scene, f"{prefix}/run{k}", run.spec,
+                           tint=None if k == 0 else palette.run_colour(k))
+                     for k, run in enumerate(runs)]
+        self.paths = [scene.add_line_segments(
+            f"{prefix}/path{k}", points=_segments(_end_effector(arm, motion)),
+            colors=palette.to_uint8(palette.PATH if len(runs) == 1 else palette.run_colour(k)),
+            thickness=PATH_WIDTH) for k, (arm, motion) in enumerate(zip(self.arms, self.motions))]
+        self.show(0)
+
+    @property
+    def frames(self) -> int:
+        """Number of frames."""
+        return len(self.times)
+
+    def frame_at(self, t: float) -> int:
+        """The frame showing time ``t`` (s), clamped to the replay."""
+        k = math.floor((t - float(self.times[0])) * self.fps + 1e-6)
+        return int(min(max(k, 0), self.frames - 1))
+
+    def show(self, frame: int) -> None:
+        """Pose every arm at frame ``frame``."""
+        for arm, motion in zip(self.arms, self.motions):
+            arm.pose(motion.q[frame], motion.modes[frame])
+
+    def remove(self) -> None:
+        """Take the replay out of the scene."""
+        for arm in self.arms:
+            arm.remove()
+        for path in self.paths:
+            path.remove()
+
+
+def _end_effector(arm: Arm3D, motion: Motion) -> np.ndarray:
+    """End-effector positions at the frames, m, shape (F, 3)."""
+    points = np.empty((len(motion.times), 3))
+    for k, q in enumerate(motion.q):
+        arm.view.pose(q)
+        points[k] = arm.end_effector
+    return points
+
+
+def _segments(points: np.ndarray) -> np.ndarray:
+    """Consecutive points joined, shape (F-1, 2, 3) (one degenerate segment for a single point)."""
+    if len(points) < 2:
+        return np.repeat(points[:1, None, :], 2, axis=1).astype(np.float32)
+    return np.stack([points[:-1], points[1:]], axis=1).astype(np.float32)
+
+
+def reach(spec: ManipulatorSpec) -> float:
+    """The arm's length: its bodies end to end, m (at least 1)."""
+    return max(sum(j.body.length for j in spec.joints if j.body), 1.0)
+
+
+def up_axis(spec: ManipulatorSpec) -> int:
+    """Index (0, 1, 2) of the world axis closest to straight up (against gravity; z without)."""
+    gravity = np.asarray(spec.gravity, dtype=float)
+    return int(np.argmax(np.abs(gravity))) if np.any(gravity) else 2
+
+
+def stage(server: Any, specs: Sequence[ManipulatorSpec]) -> None:
+    """The up direction (against gravity), floor grid and initial camera of a scene showing arms
+    ``specs`` (sized to the longest): the camera looks at the middle of the reach from the front
+    right, above."""
+    first = specs[0] if specs else None
+    up = up_axis(first) if first else 2
+    sign = -np.sign(first.gravity[up]) if first and first.gravity[up] else 1.0
+    axes = np.eye(3)
+    upward = sign * axes[up]
+    server.scene.set_up_direction(tuple(upward))
+    length = max((reach(spec) for spec in specs), default=5.0)
+    size = 2.0 * math.ceil(length * 1.2)
+    plane = {0: "yz", 1: "xz", 2: "xy"}[up]
+    server.scene.add_grid("/floor", width=size, height=size, plane=plane,
+                          cell_size=max(size / 40.0, 0.1), section_size=max(size / 8.0, 0.5))
+    along = axes[0] if up != 0 else axes[1]
+    side = np.cross(upward, along)
+    middle = 0.4 * length * along + 0.2 * length * upward
+    server.initial_camera.look_at = tuple(middle)
+    server.initial_camera.position = tuple(middle + length * (0.6 * along - 1.2 * side
+                                                               + 0.7 * upward))
+    server.initial_camera.up = tuple(upward)
+
+
+@contextlib.contextmanager
+def recording_server() -> Iterator[Any]:
+    """A viser server on a free localhost port that no page connects to, for recordings (its
+    banners, which viser prints whatever ``verbose`` says, are swallowed)."""
+    import viser
+
+    with contextlib.redirect_stdout(io.StringIO()):
+        server = viser.ViserServer(host="127.0.0.1", port=_free_port(), verbose=False)
+        try:
+            yield server
+        finally:
+            server.stop()
+
+
+def replay_html(runs: Sequence[Run], fps: float = 30.0) -> str:
+    """A self-contained HTML page replaying ``runs`` (player, arms, paths and the recording inline;
+    it opens from a file, offline). ``fps`` as :class:`Replay` takes it."""
+    with recording_server() as server:
+        stage(server, [run.spec for run in runs])
+        replay = Replay(server.scene, runs, fps)
+        recorder = server.get_scene_serializer()
+        for frame in range(1, replay.frames):
+            recorder.insert_sleep(1.0 / replay.fps)
+            replay.show(frame)
+        recorder.insert_sleep(1.0 / replay.fps)
+        html: str = recorder.as_html()
+        return html
+
+
+def _free_port() -> int:
+    import socket
+
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port: int = probe.getsockname()[1]
+        return port

@@ -1,0 +1,228 @@
+"""The Simulate tab: open-loop runs with inputs per joint, and closed-loop moves to a target.
+
+An input is the command line's signal text (``step:0.5@0.1+sine:0.1,2``, see
+:mod:`maniplab.sim.grammar`), typed or built term by term; the paper's three headline parameters
+(payload mass, leakage, viscous friction) are direct controls. Each run is stored in the
+workspace with its parameters (the run file holds its spec, inputs and overrides).
+"""
+
+from __future__ import annotations
+
+import html
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from maniplab.errors import ManiplabError
+from maniplab.gui.configure import home
+from maniplab.sim.grammar import parse_input
+
+if TYPE_CHECKING:
+    from maniplab.gui.app import Gui
+    from maniplab.sim.run import Run
+    from maniplab.spec import ManipulatorSpec
+
+KINDS = {  # kind -> labels of its first and second number ("" unused)
+    "step": ("amplitude", ""),
+    "impulse": ("area (value·s)", "width, s"),
+    "sine": ("amplitude", "frequency, Hz"),
+    "ramp": ("slope, per s", "until, s"),
+}
+ALL = "all joints"
+
+
+def term(kind: str, first: float, second: float, t0: float) -> str:
+    """One signal term in the input grammar, e.g. ``sine:0.1,2@0.5``."""
+    args = f"{first:g}" if not KINDS[kind][1] or (kind != "sine" and second <= 0.0) \
+        else f"{first:g},{second:g}"
+    return f"{kind}:{args}" + (f"@{t0:g}" if t0 else "")
+
+
+def inputs_of(texts: dict[str, str]) -> dict[str | int, Any]:
+    """Joint -> signal from the texts typed per joint (blank: no input); raises the grammar's
+    one-line error naming the joint."""
+    inputs: dict[str | int, Any] = {}
+    for joint, text in texts.items():
+        if text.strip():
+            name, signal = parse_input(f"{joint}={text.strip()}")
+            inputs[name] = signal
+    return inputs
+
+
+def headline_overrides(spec: ManipulatorSpec, joint: str, payload: float, leakage: float | None,
+                       viscous: float | None) -> dict[str, Any]:
+    """Overrides for the paper's three parameters: the payload mass (kg), and the leakage
+    (m³/(s·Pa)) and viscous friction (N·s/m or N·m·s/rad) of ``joint`` or of all joints (None:
+    the spec's); only values that differ from the spec are given."""
+    overrides: dict[str, Any] = {}
+    if payload != spec.end_effector.mass:
+        overrides["end_effector.mass"] = payload
+    joints = spec.joints if joint == ALL else [spec.joint(joint)]
+    for j in joints:
+        if leakage is not None and getattr(j.actuator, "leakage", None) not in (None, leakage):
+            overrides[f"joints.{j.name}.actuator.leakage"] = leakage
+        if viscous is not None and j.friction.viscous != viscous:
+            overrides[f"joints.{j.name}.friction.viscous"] = viscous
+    return overrides
+
+
+class SimulateTab:
+    """The Simulate tab of ``app``."""
+
+    def __init__(self, app: Gui) -> None:
+        self.app = app
+        gui = app.server.gui
+        self.name = gui.add_text("Run name", "run", hint="stored as runs/NAME.npz ('-2', '-3'... "
+                                 "added when taken)")
+        with gui.add_folder("Inputs"):
+            self.input_folder = gui.add_folder("Per joint (valve current A, or force/torque)")
+            self.inputs: dict[str, Any] = {}
+            self.input_error = gui.add_markdown("", visible=False)
+            with gui.add_folder("Build a term", expand_by_default=False):
+                self.term_joint = gui.add_dropdown("Joint", ["-"])
+                self.kind = gui.add_dropdown("Signal", tuple(KINDS))
+                self.first = gui.add_number("amplitude", 0.5)
+                self.second = gui.add_number("second (unused)", 0.0, disabled=True)
+                self.kind.on_update(lambda _: self._label_numbers())
+                self.t0 = gui.add_number("from t0, s", 0.1, min=0.0)
+                gui.add_button("Add term").on_click(lambda _: self.add_term())
+                gui.add_button("Clear joint").on_click(lambda _: self.clear_input())
+        with gui.add_folder("Parameters"):
+            self.payload = gui.add_number("Payload mass, kg", 0.0, min=0.0)
+            self.target_joint = gui.add_dropdown("Leakage and friction of", [ALL])
+            self.leakage = gui.add_text("Leakage, m³/(s·Pa)", "", hint="blank: the spec's")
+            self.viscous = gui.add_text("Viscous friction", "", hint="N·s/m or N·m·s/rad; "
+                                        "blank: the spec's")
+            self.duration = gui.add_number("Duration, s", 2.0, min=0.001)
+            self.dt = gui.add_number("Step, s", 1e-3, min=1e-6, step=1e-4)
+        gui.add_button("Run", color="green").on_click(lambda _: self.run_open_loop())
+        with gui.add_folder("Closed loop"):
+            self.target = gui.add_vector3("Target x, y, z (m)", (0.0, 0.0, 0.0), step=0.01)
+            self.move_duration = gui.add_number("Move duration, s", 2.0, min=0.01)
+            self.mode = gui.add_dropdown("Controller", ("cascade", "pid"))
+            gui.add_button("Run move", color="green").on_click(lambda _: self.run_move())
+            self.verdict = gui.add_markdown("")
+        self.gizmo: Any = None
+        self.target.on_update(lambda _: self._place_gizmo())
+        app.on_spec(self.refresh)
+        self.refresh()
+
+    def refresh(self) -> None:
+        """Fit the tab to the current arm: one input per joint, parameters, target gizmo."""
+        spec = self.app.spec
+        names = [j.name for j in spec.joints]
+        if list(self.inputs) != names:
+            for handle in self.inputs.values():
+                handle.remove()
+            with self.input_folder:
+                self.inputs = {n: self.app.server.gui.add_text(n, "", hint="e.g. step:0.5@0.1")
+                               for n in names}
+            self.term_joint.options = names
+            self.target_joint.options = [ALL, *names]
+        self.payload.value = spec.end_effector.mass
+        self._reset_target(spec)
+
+    def _label_numbers(self) -> None:
+        first, second = KINDS[self.kind.value]
+        self.first.label = first
+        self.second.label = second or "second (unused)"
+        self.second.disabled = not second
+
+    def clear_input(self) -> None:
+        """Empty the chosen joint's input."""
+        self.inputs[self.term_joint.value].value = ""
+
+    def add_term(self) -> None:
+        """Append the term built to the chosen joint's input."""
+        field = self.inputs[self.term_joint.value]
+        new = term(self.kind.value, self.first.value, self.second.value, self.t0.value)
+        field.value = f"{field.value.strip()}+{new}" if field.value.strip() else new
+
+    # --- open loop ------------------------------------------------------------------------------
+
+    def run_open_loop(self) -> None:
+        """Simulate the arm under the inputs and parameters given, and store the run."""
+        spec = self.app.spec
+        try:
+            inputs = inputs_of({n: h.value for n, h in self.inputs.items()})
+            overrides = headline_overrides(spec, self.target_joint.value, self.payload.value,
+                                           _number(self.leakage.value, "leakage"),
+                                           _number(self.viscous.value, "viscous friction"))
+            run_spec = spec.with_overrides(overrides) if overrides else spec
+        except ManiplabError as exc:
+            self._fail(str(exc))
+            return
+        self._fail(None)
+        duration, dt, name = float(self.duration.value), float(self.dt.value), self.name.value
+
+        def work() -> Run:
+            from maniplab.sim.simulate import simulate
+
+            return simulate(run_spec, inputs=inputs, duration=duration, dt=dt,
+                            initial={"dP": "gravity"}, label=name, progress=False)
+
+        self.app.jobs.start(f"simulating {spec.name}", work, lambda run: self._store(run, name))
+
+    def _store(self, run: Run, name: str) -> str:
+        stored = self.app.workspace.save_run(run, name)
+        self.app.runs_changed()
+        return f"stored run '{stored}': {run.health.verdict}"
+
+    def _fail(self, message: str | None) -> None:
+        self.input_error.content = f"**⚠ {html.escape(message)}**" if message else ""
+        self.input_error.visible = bool(message)
+
+    # --- closed loop ----------------------------------------------------------------------------
+
+    def _reset_target(self, spec: ManipulatorSpec) -> None:
+        arm = self.app.configure.arm3d if hasattr(self.app, "configure") else None
+        if arm is None:
+            return
+        arm.view.pose(home(spec))
+        self.target.value = _rounded(arm.end_effector)
+        self._place_gizmo()
+
+    def _place_gizmo(self) -> None:
+        position = np.asarray(self.target.value, dtype=float)
+        if self.gizmo is None:
+            self.gizmo = self.app.server.scene.add_transform_controls(
+                "/target", scale=0.6, disable_rotations=True, position=position)
+            self.gizmo.on_update(lambda _: self._from_gizmo())
+        elif not np.allclose(self.gizmo.position, position):
+            self.gizmo.position = position
+
+    def _from_gizmo(self) -> None:
+        self.target.value = _rounded(self.gizmo.position)
+
+    def run_move(self) -> None:
+        """Run the cascade (or PID-only) controller to the target and store the run."""
+        from maniplab.control.move import run_move
+
+        spec, target = self.app.spec, [float(x) for x in self.target.value]
+        duration, mode, name = float(self.move_duration.value), self.mode.value, self.name.value
+
+        def done(result: Any) -> str:
+            missed = result.missed()
+            self.verdict.content = html.escape(f"health {result.health.summary()}; "
+                                               f"{missed or 'tolerances met'}")
+            return self._store(result.run, f"{name}-{mode}")
+
+        self.verdict.content = ""
+        self.app.jobs.start(f"{mode} move of {spec.name}",
+                            lambda: run_move(spec, target, start=None, duration=duration,
+                                             mode=mode), done)
+
+
+def _number(text: str, what: str) -> float | None:
+    if not text.strip():
+        return None
+    try:
+        return float(text)
+    except ValueError:
+        raise ManiplabError(f"{what}: '{text}' is not a number") from None
+
+
+def _rounded(position: Any) -> tuple[float, float, float]:
+    """A position to the millimetre, m."""
+    x, y, z = (round(float(c), 3) for c in position)
+    return x, y, z

@@ -1,0 +1,148 @@
+"""The Watch tab: the runs ticked in the Runs tab replayed in 3D with a timeline (play, pause,
+scrub, speed), and exported as a self-contained HTML replay.
+
+Playback runs on the server: a thread advances the timeline at :data:`FPS` frames per second of
+wall time, and the timeline's own callback poses the arms, so scrubbing and playing are the same
+path.
+"""
+
+from __future__ import annotations
+
+import html
+import threading
+import time
+from typing import TYPE_CHECKING
+
+from maniplab.errors import ManiplabError
+from maniplab.gui.replay import Replay, replay_html, stage
+from maniplab.gui.runs import legend
+from maniplab.viz import palette
+
+if TYPE_CHECKING:
+    from maniplab.gui.app import Gui
+
+FPS = 30.0
+"""Frames per second of the replay, of run time and of wall time at speed 1."""
+
+SPEEDS = ("0.1", "0.25", "0.5", "1", "2", "4")
+
+
+class WatchTab:
+    """The Watch tab of ``app``."""
+
+    def __init__(self, app: Gui) -> None:
+        self.app = app
+        gui = app.server.gui
+        gui.add_button("Show the ticked runs").on_click(lambda _: self.show())
+        self.key = gui.add_html("")
+        self.time = gui.add_slider("Time, s", min=0.0, max=1.0, step=1.0 / FPS, initial_value=0.0)
+        self.time.on_update(lambda _: self._seek())
+        self.play_button = gui.add_button("Play")
+        self.play_button.on_click(lambda _: self.toggle())
+        self.speed = gui.add_dropdown("Speed", SPEEDS, initial_value="1")
+        gui.add_button("Export HTML replay").on_click(lambda _: self.export())
+        gui.add_button("Back to the arm").on_click(lambda _: self.hide())
+        self.message = gui.add_markdown("")
+        self.replay: Replay | None = None
+        self.playing = threading.Event()
+        self._lock = threading.Lock()
+        threading.Thread(target=self._play, daemon=True, name="maniplab-gui: playback").start()
+
+    def show(self) -> None:
+        """Replay the runs ticked in the Runs tab (the first solid, the others as ghosts)."""
+        names = self.app.runs.selected()
+        try:
+            if not names:
+                raise ManiplabError("tick the runs to watch in the Runs tab")
+            runs = [self.app.workspace.load_run(n) for n in names]
+            with self._lock:
+                self._clear()
+                replay = Replay(self.app.server.scene, runs, FPS)
+                self.replay = replay
+        except (ManiplabError, OSError) as exc:
+            self.message.content = f"**⚠ {html.escape(str(exc))}**"
+            return
+        self._set_arm_visible(False)
+        stage(self.app.server, [run.spec for run in runs])
+        self.key.content = _key(legend(runs, names))
+        self.time.min, self.time.max = float(replay.times[0]), float(replay.times[-1])
+        self.time.step = 1.0 / replay.fps
+        self.time.value = float(replay.times[0])
+        self.message.content = (f"{len(runs)} run(s), {replay.frames} frames: blue joints stick, "
+                                "red ones are at a limit")
+
+    def hide(self) -> None:
+        """Take the replay away and show the arm being configured."""
+        self.playing.clear()
+        with self._lock:
+            self._clear()
+        self.key.content = ""
+        self._set_arm_visible(True)
+
+    def _clear(self) -> None:
+        if self.replay is not None:
+            self.replay.remove()
+            self.replay = None
+
+    def _set_arm_visible(self, visible: bool) -> None:
+        arm = self.app.configure.arm3d
+        if arm is not None:
+            arm.set_visible(visible)
+
+    def toggle(self) -> None:
+        """Play or pause."""
+        if self.playing.is_set():
+            self.playing.clear()
+            self.play_button.label = "Play"
+        elif self.replay is not None:
+            if self.time.value >= self.time.max:
+                self.time.value = self.time.min
+            self.playing.set()
+            self.play_button.label = "Pause"
+
+    def _seek(self) -> None:
+        with self._lock:
+            if self.replay is not None:
+                with self.app.server.atomic():
+                    self.replay.show(self.replay.frame_at(float(self.time.value)))
+
+    def _play(self) -> None:
+        while True:
+            self.playing.wait()
+            began, start = time.monotonic(), float(self.time.value)
+            while self.playing.is_set():
+                time.sleep(1.0 / FPS)
+                t = start + (time.monotonic() - began) * float(self.speed.value)
+                if t >= self.time.max:
+                    self.time.value = self.time.max
+                    self.playing.clear()
+                    self.play_button.label = "Play"
+                    break
+                self.time.value = round(t * FPS) / FPS
+
+    def export(self) -> None:
+        """Write the ticked runs' replay as an offline HTML page and send it to the browser."""
+        names = self.app.runs.selected()
+        if not names:
+            self.message.content = "**⚠ tick the runs to export in the Runs tab**"
+            return
+
+        def work() -> str:
+            return replay_html([self.app.workspace.load_run(n) for n in names], FPS)
+
+        def done(page: str) -> str:
+            path = self.app.download(f"replay-{'-'.join(names)}"[:64], ".html", page)
+            return f"replay written to {path} and sent to the browser"
+
+        self.app.jobs.start("exporting the replay", work, done)
+
+
+def _key(labels: list[str]) -> str:
+    """The colour of each run, as HTML."""
+    items = []
+    for k, label in enumerate(labels):
+        r, g, b = palette.to_uint8(palette.run_colour(k))
+        shape = "solid" if k == 0 else "ghost"
+        items.append(f"<span style='color:rgb({r},{g},{b})'>■</span> {html.escape(label)} "
+                     f"({shape})")
+    return "<div style='font-size:12px'>" + "<br>".join(items) + "</div>"
