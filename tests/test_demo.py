@@ -20,7 +20,7 @@ ARTEFACTS = [
     "erector.xml", "model/erector_model.md", "model/erector_model.py", "open_loop_step.png",
     "open_loop_impulse.png", "open_loop_sine.png", "closed_loop.png", "crossval.png",
     "closed_loop.mp4", "cascade_vs_pid.mp4", "closed_loop_frame.png",
-    "cascade_vs_pid_frame.png", "summary.json",
+    "cascade_vs_pid_frame.png", "summary.json", "closed_loop_replay.html",
     "report.html", "runs/closed_loop_cascade.npz", "runs/closed_loop_pid.npz",
 ]
 
@@ -62,6 +62,21 @@ def test_report_embeds_exactly_the_written_figures(demo) -> None:
     last = iio.imread(out / "cascade_vs_pid.mp4")[-1]
     poster = iio.imread(out / "cascade_vs_pid_frame.png")
     assert last.shape == poster.shape and np.abs(last.astype(int) - poster).mean() < 8  # H.264
+
+
+def test_report_embeds_the_3d_replay_of_the_closed_loop_runs(demo) -> None:
+    """The report holds the replay page itself (inline, so it works offline) and links it; the
+    page's recording holds both runs' arms (the cascade solid, the PID run a ghost)."""
+    import html as html_module
+
+    out, _ = demo
+    report = (out / "report.html").read_text()
+    page = (out / "closed_loop_replay.html").read_text()
+    frames = re.findall(r"<iframe class='replay' title='([^']+)' srcdoc='([^']*)'>", report)
+    assert [(name, html_module.unescape(doc)) for name, doc in frames] == \
+        [("closed_loop_replay.html", page)]
+    assert "href='closed_loop_replay.html'" in report
+    assert "__VISER_EMBED_DATA__" in page and "<script src=\"http" not in page
 
 
 def test_reported_tracking_error_follows_from_the_stored_run(demo) -> None:

@@ -24,6 +24,7 @@ import maniplab as ml
 from maniplab.atomic import atomic_path, write_text
 from maniplab.demo.erector import MOVE_Q0, acceptance_move, run_case
 from maniplab.demo.report import Section, write_report
+from maniplab.gui.replay import replay_html
 from maniplab.mjcf_gen import write_mjcf
 from maniplab.model.export import export_model
 from maniplab.viz.plots import compare, save_figure
@@ -261,6 +262,13 @@ class Demo:
                    posters[0])
         _write_png(list(ml.viz.iter_grid([cascade, pid], width=width, height=height, fps=once,
                                          progress=False))[-1], posters[1])
+        replay = self.out / "closed_loop_replay.html"
+        write_text(replay, replay_html([cascade, pid], fps=fps))
+        self.sections.append(Section(
+            "3D replay",
+            "The same two runs in the browser's 3D view (maniplab gui's Watch tab, exported): "
+            "the cascade solid, the PID-only baseline as a ghost, joints blue while they stick.",
+            pages=[replay]))
         self.sections.append(Section(
             "Videos",
             "The closed-loop run was rendered offscreen with MuJoCo (joints coloured by their "

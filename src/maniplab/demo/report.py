@@ -27,6 +27,7 @@ class Section:
         videos: video files to link (relative to the report).
         posters: per video, a PNG of its last frame shown as its preview (fewer posters than
             videos: the rest are plain links).
+        pages: self-contained HTML pages (3D replays) embedded in the report, each also linked.
     """
 
     title: str
@@ -35,6 +36,7 @@ class Section:
     images: Sequence[Path] = ()
     videos: Sequence[Path] = ()
     posters: Sequence[Path] = ()
+    pages: Sequence[Path] = ()
 
 
 _STYLE = """
@@ -47,6 +49,7 @@ td, th { border: 1px solid #d8dee4; padding: 0.25em 0.7em; text-align: left; }
 th { background: #f6f8fa; } figure { margin: 0.8em 0; } img { max-width: 100%; }
 figcaption { color: #57606a; font-size: 0.85em; } .summary td:first-child { font-weight: 600; }
 a.video img { border: 1px solid #d8dee4; }
+iframe.replay { width: 100%; height: 520px; border: 1px solid #d8dee4; }
 """
 
 
@@ -81,6 +84,12 @@ def _section(section: Section, folder: Path) -> str:
                   if k < len(section.posters) else link)
         parts.append(f"<figure><a class='video' href='{link}'>{poster}</a>"
                      f"<figcaption>video: <a href='{link}'>{link}</a></figcaption></figure>")
+    for page in section.pages:  # inline (srcdoc): the report stays one file that works offline
+        link = _e(_relative(page, folder))
+        parts.append(f"<figure><iframe class='replay' title='{link}' srcdoc='"
+                     f"{_e(page.read_text(encoding='utf-8'))}'></iframe>"
+                     f"<figcaption>3D replay (drag to orbit; play, pause, scrub and speed below "
+                     f"it): <a href='{link}'>{link}</a></figcaption></figure>")
     for image in section.images:
         parts.append(f"<figure><img src='{_data_uri(image)}' alt='{_e(image.name)}'>"
                      f"<figcaption>{_e(image.name)}</figcaption></figure>")

@@ -25,7 +25,7 @@ if TYPE_CHECKING:
     from maniplab.gui.app import Gui
 
 ARM_FIELDS = (
-    ("name", "the arm's name"),
+    ("name", "the arm's name"),  # shown as "arm name"
     ("gravity", "m/s², [x, y, z]"),
     ("end_effector.mass", "payload, kg"),
     ("end_effector.offset", "payload centre from the last joint, m"),
@@ -68,9 +68,10 @@ def lookup(data: dict[str, Any], path: str) -> Any:
 class Field:
     """A text input with its error line under it."""
 
-    def __init__(self, gui: Any, label: str, hint: str, value: str,
-                 apply: Any) -> None:
-        self.input = gui.add_text(label, value, hint=hint)
+    def __init__(self, gui: Any, path: str, hint: str, value: str, apply: Any,
+                 label: str | None = None) -> None:
+        self.path = path
+        self.input = gui.add_text(label or path, value, hint=hint)
         self.error = gui.add_markdown("", visible=False)
         self.quiet = False
         self.input.on_update(lambda _: None if self.quiet else apply(self))
@@ -105,8 +106,9 @@ class ConfigureTab:
         gui.add_button("Start from this built-in").on_click(lambda _: self.load_builtin())
         self.table = gui.add_html("")
         with gui.add_folder("Arm"):
-            self.arm_fields = [Field(gui, path, hint, "", self._apply_arm) for path, hint in
-                               ARM_FIELDS]
+            self.arm_fields = [Field(gui, path, hint, "", self._apply_arm,
+                                     label="arm name" if path == "name" else None)
+                               for path, hint in ARM_FIELDS]
         with gui.add_folder("Joint"):
             self.joint = gui.add_dropdown("Joint", [j.name for j in app.spec.joints])
             self.joint.on_update(lambda _: None if self._quiet else self._rebuild_fields())
@@ -155,7 +157,7 @@ class ConfigureTab:
             self.joint.value = wanted if wanted in names else names[0]
         finally:
             self._quiet = False
-        if [f.input.label for f in self.joint_fields] != [p for p, _ in self._paths()]:
+        if [f.path for f in self.joint_fields] != [p for p, _ in self._paths()]:
             self._rebuild_fields()
         else:
             self._sync_values()
@@ -190,10 +192,10 @@ class ConfigureTab:
     # --- editing --------------------------------------------------------------------------------
 
     def _apply_arm(self, field: Field) -> None:
-        self._apply(field, field.input.label)
+        self._apply(field, field.path)
 
     def _apply_joint(self, field: Field) -> None:
-        self._apply(field, f"joints.{self.joint.value}.{field.input.label}")
+        self._apply(field, f"joints.{self.joint.value}.{field.path}")
 
     def _apply(self, field: Field, path: str) -> None:
         try:
@@ -212,7 +214,7 @@ class ConfigureTab:
         data = self.app.spec.to_dict()
         joint = data["joints"][self.app.spec.joint_index(self.joint.value)]
         for field in self.joint_fields:
-            field.show(text_of(lookup(joint, field.input.label)))
+            field.show(text_of(lookup(joint, field.path)))
 
     def _toggle_body(self) -> None:
         name = self.joint.value
@@ -338,12 +340,12 @@ def joint_table(spec: ManipulatorSpec) -> str:
                                           joint.friction.viscous)))
         rows.append("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in cells) + "</tr>")
     style = ("<style>.ml-joints{border-collapse:collapse;font-size:11px}"
-             ".ml-joints td,.ml-joints th{border:1px solid #ccc;padding:1px 4px}</style>")
+             ".ml-joints td,.ml-joints th{border:1px solid #ccc;padding:1px 3px;font-size:10px}</style>")
     header = "".join(f"<th>{html.escape(h)}</th>" for h in head)
     payload = (f"<p style='font-size:11px'>payload {_g(spec.end_effector.mass)} kg, gravity "
                f"{_v(spec.gravity)} m/s²</p>")
-    return (f"{style}<table class='ml-joints' id='ml-joints'><tr>{header}</tr>{''.join(rows)}"
-            f"</table>{payload}")
+    return (f"{style}<div style='overflow-x:auto'><table class='ml-joints' id='ml-joints'>"
+            f"<tr>{header}</tr>{''.join(rows)}</table></div>{payload}")
 
 
 def _actuator(joint: Any) -> str:

@@ -135,8 +135,8 @@ def stage(server: Any, specs: Sequence[ManipulatorSpec]) -> None:
     side = np.cross(upward, along)
     middle = 0.4 * length * along + 0.2 * length * upward
     server.initial_camera.look_at = tuple(middle)
-    server.initial_camera.position = tuple(middle + length * (0.6 * along - 1.2 * side
-                                                               + 0.7 * upward))
+    server.initial_camera.position = tuple(middle + length * (0.4 * along - 0.85 * side
+                                                               + 0.5 * upward))
     server.initial_camera.up = tuple(upward)
 
 

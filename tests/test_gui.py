@@ -1,0 +1,285 @@
+"""The GUI (maniplab gui): its parts against independent references, and the page driven in
+Debian's headless chromium. Screenshots of each stage go to out/gui-screenshots/."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import browser as web
+import mujoco
+import numpy as np
+import pytest
+from PIL import Image
+from selenium.webdriver.common.keys import Keys
+
+import maniplab as ml
+from maniplab.gui.app import Gui
+from maniplab.gui.arm3d import Arm3D
+from maniplab.gui.replay import recording_server, replay_html
+from maniplab.gui.simulate import headline_overrides, inputs_of, term
+from maniplab.gui.workspace import Workspace, WorkspaceError
+
+ARMS = Path(__file__).parent / "arms"
+CORPUS = sorted(ARMS.glob("*.yaml"))
+
+
+def _specs() -> list[ml.ManipulatorSpec]:
+    return [ml.builtin_spec(n) for n in ml.builtin_specs()] + [ml.load_spec(p) for p in CORPUS]
+
+
+def _saturated(png: Path, box: tuple[float, float, float, float] = (0.0, 0.2, 0.7, 0.95)) -> int:
+    """Pixels of strong colour (the links' yellow, green, pink...) in the fraction ``box``
+    (left, top, right, bottom) of a screenshot: the page's grey grid and white sky have none."""
+    image = np.asarray(Image.open(png).convert("RGB")).astype(int)
+    h, w, _ = image.shape
+    part = image[int(box[1] * h):int(box[3] * h), int(box[0] * w):int(box[2] * w)]
+    return int(np.count_nonzero(part.max(axis=2) - part.min(axis=2) > 80))
+
+
+def _wait_idle(app: Gui, timeout: float = 120.0) -> str:
+    end = time.monotonic() + timeout
+    while app.jobs.busy:
+        assert time.monotonic() < end, "the GUI's job did not finish"
+        time.sleep(0.05)
+    return str(app.status.content)
+
+
+# --- parts ----------------------------------------------------------------------------------------
+
+
+def test_workspace_takes_names_never_paths(tmp_path: Path) -> None:
+    space = Workspace(tmp_path / "ws")
+    for bad in ("../escape", "a/b", ".hidden", "", "x" * 65, "/etc/passwd", "..", "a\\b", "é"):
+        with pytest.raises(WorkspaceError, match="not a valid name"):
+            space.path("runs", bad, ".npz")
+    run = ml.simulate("planar2", inputs={"q1": 1.0}, duration=0.05)
+    assert space.save_run(run, "a") == "a"
+    assert space.save_run(run, "a") == "a-2"  # never overwrites
+    space.rename_run("a-2", "b")
+    with pytest.raises(WorkspaceError, match="exists already"):
+        space.rename_run("a", "b")
+    space.delete_run("a")
+    assert space.runs() == ["b"]
+    assert Workspace(tmp_path / "ws").runs() == ["b"]  # a restart finds the runs again
+    np.testing.assert_array_equal(space.load_run("b").q, run.q)
+    assert sorted(p.name for p in (tmp_path / "ws").rglob("*") if p.is_file()) == ["b.npz"]
+
+
+def test_signal_terms_are_the_closed_form_signals() -> None:
+    t = np.linspace(0.0, 3.0, 301)
+    cases = {
+        term("step", 0.5, 0.0, 0.2): np.where(t >= 0.2, 0.5, 0.0),
+        term("sine", 0.1, 2.0, 0.5): np.where(t >= 0.5, 0.1 * np.sin(2 * np.pi * 2.0 * (t - 0.5)), 0),
+        term("ramp", 2.0, 1.5, 1.0): np.clip(2.0 * (t - 1.0), 0.0, 1.0),
+    }
+    for text, expected in cases.items():
+        signal = inputs_of({"q1": text})["q1"]
+        np.testing.assert_allclose([signal(x) for x in t], expected, atol=1e-12, err_msg=text)
+    impulse = inputs_of({"q1": term("impulse", 0.02, 0.01, 1.0)})["q1"]
+    fine = np.linspace(0.0, 2.0, 200001)
+    assert np.trapezoid([impulse(x) for x in fine], fine) == pytest.approx(0.02, rel=1e-3)
+    with pytest.raises(ml.ManiplabError, match="q1"):
+        inputs_of({"q1": "stepp:1"})
+
+
+def test_headline_parameters_become_overrides_of_the_changed_values() -> None:
+    spec = ml.builtin_spec("erector")
+    assert headline_overrides(spec, "all joints", spec.end_effector.mass, None, None) == {}
+    got = headline_overrides(spec, "q2", 2500.0, 3e-12, 1234.0)
+    assert got == {"end_effector.mass": 2500.0, "joints.q2.actuator.leakage": 3e-12,
+                   "joints.q2.friction.viscous": 1234.0}
+    every = headline_overrides(spec, "all joints", spec.end_effector.mass, 3e-12, None)
+    assert set(every) == {f"joints.{j.name}.actuator.leakage" for j in spec.joints}
+
+
+@pytest.mark.parametrize("spec", _specs(), ids=lambda s: s.name)
+def test_the_3d_arm_stands_where_mujoco_puts_it(spec: ml.ManipulatorSpec) -> None:
+    """Each mesh sits at the geom pose that MuJoCo's full forward pass gives for the model
+    ml.build_model makes, at a random pose within the limits."""
+    rng = np.random.default_rng(7)
+    lo = np.array([j.limits[0] if j.limits else -1.0 for j in spec.joints])
+    hi = np.array([j.limits[1] if j.limits else 1.0 for j in spec.joints])
+    q = rng.uniform(lo, hi)
+    model = ml.build_model(spec)
+    data = mujoco.MjData(model)
+    data.qpos[:] = q
+    mujoco.mj_forward(model, data)
+    with recording_server() as server:
+        arm = Arm3D(server.scene, "/arm", spec)
+        arm.pose(q)
+        assert arm._meshes, f"{spec.name}: no geometry drawn"
+        for geom, handle in arm._meshes:
+            name = model.geom(geom).name
+            reference = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, name)
+            np.testing.assert_allclose(handle.position, data.geom_xpos[reference], atol=1e-9,
+                                       err_msg=f"{spec.name} {name}")
+            rotation = np.empty(9)
+            mujoco.mju_quat2Mat(rotation, np.asarray(handle.wxyz, dtype=float))
+            np.testing.assert_allclose(rotation, data.geom_xmat[reference], atol=1e-9)
+
+
+def test_a_stopped_run_stores_nothing(tmp_path: Path) -> None:
+    app = Gui(ml.builtin_spec("crane3"), tmp_path / "ws", port=_port())
+    try:
+        app.simulate.duration.value = 600.0
+        app.simulate.run_open_loop()
+        time.sleep(1.0)
+        assert app.jobs.busy
+        app.jobs.stop()
+        assert "stopped, nothing stored" in _wait_idle(app)
+        assert list((tmp_path / "ws" / "runs").iterdir()) == []
+    finally:
+        app.close()
+
+
+def test_the_closed_loop_move_reports_its_verdict(tmp_path: Path) -> None:
+    spec = ml.builtin_spec("crane3")
+    app = Gui(spec, tmp_path / "ws", port=_port())
+    try:
+        view = app.configure.arm3d
+        assert view is not None
+        view.view.pose(np.array([0.3, 0.2, 0.5]))
+        app.simulate.target.value = tuple(float(x) for x in view.end_effector)
+        app.simulate.move_duration.value = 2.0
+        app.simulate.run_move()
+        assert "stored run 'run-cascade'" in _wait_idle(app)
+        assert "health ok; tolerances met" in str(app.simulate.verdict.content)
+        run = app.workspace.load_run("run-cascade")
+        # the run ends at the target: the arm's own forward kinematics at its last q
+        view.view.pose(run.q[-1])
+        np.testing.assert_allclose(view.end_effector, app.simulate.target.value, atol=2e-3)
+        app.simulate.target.value = (50.0, 0.0, 0.0)  # far out of reach
+        app.simulate.run_move()
+        assert "out of reach" in _wait_idle(app)
+    finally:
+        app.close()
+
+
+def test_gui_listens_on_localhost_and_warns_loudly_otherwise(tmp_path: Path) -> None:
+    app = Gui(ml.builtin_spec("planar2"), tmp_path / "ws", port=_port())
+    try:
+        assert app.server.get_host() == "127.0.0.1"
+    finally:
+        app.close()
+    command = [sys.executable, "-m", "maniplab", "gui", "planar2", "--no-browser", "--host",
+               "0.0.0.0", "--port", str(_port()), "--workspace", str(tmp_path / "ws2")]
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               env={**os.environ, "MUJOCO_GL": "egl"})
+    try:
+        assert process.stderr is not None
+        line = process.stderr.readline()
+        assert "WARNING: listening on 0.0.0.0" in line
+    finally:
+        process.kill()
+        process.wait()
+
+
+# --- in the browser -------------------------------------------------------------------------------
+
+
+def test_exported_replay_opens_offline_and_draws_the_arm(tmp_path: Path) -> None:
+    spec = ml.load_spec(ARMS / "excavator.yaml")
+    runs = [ml.simulate(spec, inputs={spec.joints[1].name: ml.signals.step(0.4, t0=0.1)},
+                        duration=1.0, initial={"dP": "gravity"}, overrides=o)
+            for o in ({}, {"end_effector.mass": spec.end_effector.mass * 2 + 100})]
+    page = tmp_path / "replay.html"
+    page.write_text(replay_html(runs))
+    text = page.read_text()
+    assert "http://" not in text.split("__VISER_EMBED_DATA__")[0].lower().replace(
+        "http://www.w3.org", "")  # no script or style fetched from elsewhere
+    with web.chromium(offline=True) as driver:
+        driver.get(page.as_uri())
+        web.wait(lambda: driver.find_elements("css selector", "canvas"), "the canvas")
+        time.sleep(4.0)
+        png = web.shot(driver, "replay-offline")
+    assert _saturated(png, (0.0, 0.2, 1.0, 0.95)) > 2000, f"the replay draws no arm: see {png}"
+
+
+def test_the_page_configures_simulates_compares_and_replays(tmp_path: Path) -> None:
+    app = Gui(ml.builtin_spec("erector"), tmp_path / "ws", port=_port())
+    try:
+        with web.chromium() as driver:
+            driver.get(app.url)
+            web.text_shown(driver, "hydraulic")
+            time.sleep(2.0)
+            assert _saturated(web.shot(driver, "1-configure")) > 2000, "no arm in the scene"
+
+            # edit a joint: the table and the model follow
+            web.type_into(driver, "body.mass", "1800")
+            web.wait(lambda: app.spec.joint("q1").body.mass == 1800.0, "the new mass")
+            web.text_shown(driver, "1800")
+            # a bad value: the spec's one-line error under the field, the arm unchanged
+            web.type_into(driver, "body.mass", "-5")
+            web.text_shown(driver, "joint q1, field 'body.mass'")
+            web.shot(driver, "2-bad-value")
+            assert app.spec.joint("q1").body.mass == 1800.0
+
+            # two step responses, the second with another payload
+            web.tab(driver, "Simulate")
+            web.type_into(driver, "q2", "step:0.5@0.1")
+            web.type_into(driver, "Duration, s", "1")
+            web.click(driver, "Run")
+            web.text_shown(driver, "stored run 'run'")
+            web.type_into(driver, "Payload mass, kg", "2000")
+            web.click(driver, "Run")
+            web.text_shown(driver, "stored run 'run-2'")
+            web.shot(driver, "3-simulate")
+            assert app.workspace.runs() == ["run", "run-2"]
+            assert app.workspace.load_run("run-2").spec.end_effector.mass == 2000.0
+
+            # both in the list, overlaid
+            web.tab(driver, "Runs")
+            web.wait(lambda: web.visible(driver, "//table[@id='ml-runs']//td[.='run-2']"),
+                     "run-2 in the list")
+            web.tick(driver, "run")
+            web.tick(driver, "run-2")
+            web.click(driver, "Plot selected runs")
+            web.text_shown(driver, "2 run(s): q, dP")
+            image = web.wait(lambda: web.visible(driver, "//img[@alt='comparison' or "
+                                                 "contains(@src,'blob:') or contains(@src,'data:')]"),
+                             "the plot")
+            assert image.size["width"] > 200
+            web.shot(driver, "4-compare")
+
+            # a second tab sees the same runs
+            driver.switch_to.new_window("tab")
+            driver.get(app.url)
+            web.tab(driver, "Runs")
+            web.wait(lambda: web.visible(driver, "//table[@id='ml-runs']//td[.='run-2']"),
+                     "run-2 in the second tab")
+            driver.close()
+            driver.switch_to.window(driver.window_handles[0])
+
+            # replay, then scrub the timeline to its end
+            web.tab(driver, "Watch")
+            web.click(driver, "Show the ticked runs")
+            web.text_shown(driver, "2 run(s)")
+            assert app.watch.replay is not None
+            start = [arm.end_effector for arm in app.watch.replay.arms]
+            thumb = web.wait(lambda: web.visible(driver, "//*[@role='slider']"), "the timeline")
+            driver.execute_script("arguments[0].scrollIntoView({block: 'center'});", thumb)
+            thumb.click()
+            thumb.send_keys(Keys.END)  # the slider's keyboard scrub: to the last frame
+            web.wait(lambda: app.watch.time.value >= app.watch.time.max - 0.05, "the scrub")
+            end = [arm.end_effector for arm in app.watch.replay.arms]
+            last = [app.workspace.load_run(n) for n in ("run", "run-2")]
+            for arm, run, before, after in zip(app.watch.replay.arms, last, start, end):
+                arm.view.pose(run.q[-1])  # the scrubbed pose is the run's last state
+                np.testing.assert_allclose(after, arm.end_effector, atol=1e-6)
+                assert np.linalg.norm(after - before) > 0.01
+            time.sleep(1.0)
+            web.shot(driver, "5-watch")
+    finally:
+        app.close()
+
+
+def _port() -> int:
+    import socket
+
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return int(probe.getsockname()[1])
