@@ -78,7 +78,8 @@ class Arm3D:
                 f"{prefix}/{model.geom(geom).name or f'geom{geom}'}",
                 vertices=np.asarray(surface.vertices, dtype=np.float32),
                 faces=np.asarray(surface.faces, dtype=np.uint32), color=colour,
-                opacity=opacity if opacity < 1.0 else None, flat_shading=False)
+                opacity=opacity if opacity < 1.0 else None, flat_shading=False,
+                cast_shadow=False, receive_shadow=False)
             self._meshes.append((geom, handle))
             self._colours[geom] = colour
         self._tendons = None
