@@ -284,3 +284,33 @@ def _port() -> int:
     with socket.socket() as probe:
         probe.bind(("127.0.0.1", 0))
         return int(probe.getsockname()[1])
+
+
+def test_joints_added_moved_removed_saved_and_exported(tmp_path: Path) -> None:
+    app = Gui(ml.load_spec(ARMS / "gantry.yaml"), tmp_path / "ws", port=_port())
+    try:
+        tab = app.configure
+        names = [j.name for j in app.spec.joints]
+        tab.joint.value = names[0]
+        tab.add_joint()
+        assert [j.name for j in app.spec.joints] == [names[0], f"{names[0]}_2", *names[1:]]
+        assert app.spec.joints[1] == ml.ManipulatorSpec.from_dict(app.spec.to_dict()).joints[1]
+        tab.move_joint(1)  # the copy moves one place down the chain
+        assert [j.name for j in app.spec.joints][1:3] == [names[1], f"{names[0]}_2"]
+        tab.remove_joint()
+        assert [j.name for j in app.spec.joints] == names
+        assert "<td>" + names[0] + "</td>" in str(tab.table.content)
+        tab.file_name.value = "my_gantry"
+        tab.save()
+        saved = ml.load_spec(tmp_path / "ws" / "specs" / "my_gantry.yaml")
+        assert saved.to_dict() == app.spec.to_dict()
+        tab.download_mjcf()
+        xml = next((tmp_path / "ws" / "exports").glob("*.xml")).read_text()
+        model = mujoco.MjModel.from_xml_string(xml)
+        assert model.njnt == app.spec.n
+        tab.file_name.value = "../outside"
+        tab.save()
+        assert "not a valid name" in str(app.status.content)
+        assert not (tmp_path / "outside.yaml").exists()
+    finally:
+        app.close()
