@@ -205,8 +205,8 @@ def test_the_page_configures_simulates_compares_and_replays(tmp_path: Path) -> N
         with web.chromium() as driver:
             driver.get(app.url)
             web.text_shown(driver, "hydraulic")
-            time.sleep(2.0)
-            assert _saturated(web.shot(driver, "1-configure")) > 2000, "no arm in the scene"
+            web.wait(lambda: _saturated(web.shot(driver, "1-configure")) > 600,
+                     "the arm in the scene (see out/gui-screenshots/1-configure.png)")
 
             # edit a joint: the table and the model follow
             web.type_into(driver, "body.mass", "1800")
