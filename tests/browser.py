@@ -120,24 +120,5 @@ def shot(driver: Any, name: str) -> Path:
     return path
 
 
-def canvas_pixels(driver: Any) -> tuple[int, int]:
-    """(distinct colours, non-background pixels) of the page's WebGL canvas, sampled."""
-    script = """
-    const src = document.querySelector('canvas');
-    if (!src) return null;
-    const c = document.createElement('canvas'); c.width = 200; c.height = 120;
-    const g = c.getContext('2d'); g.drawImage(src, 0, 0, 200, 120);
-    const d = g.getImageData(0, 0, 200, 120).data;
-    const seen = new Set(); let ink = 0;
-    for (let i = 0; i < d.length; i += 4) {
-      seen.add((d[i] >> 3) + ',' + (d[i+1] >> 3) + ',' + (d[i+2] >> 3));
-      if (Math.abs(d[i] - d[i+1]) > 30 || Math.abs(d[i+1] - d[i+2]) > 30) ink++;
-    }
-    return [seen.size, ink];
-    """
-    result = driver.execute_script(script)
-    return (0, 0) if result is None else (int(result[0]), int(result[1]))
-
-
 def _quote(text: str) -> str:
     return f'"{text}"' if '"' not in text else f"'{text}'"

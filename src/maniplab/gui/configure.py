@@ -18,6 +18,7 @@ from maniplab.builtin import builtin_spec, builtin_specs
 from maniplab.errors import ManiplabError, SpecError
 from maniplab.gui.arm3d import Arm3D
 from maniplab.gui.replay import stage
+from maniplab.gui.text import warning
 from maniplab.spec import ManipulatorSpec
 from maniplab.spec.yaml_io import dump_yaml, parse_yaml
 
@@ -86,7 +87,7 @@ class Field:
 
     def fail(self, message: str | None) -> None:
         """Show ``message`` under the field (None: hide the line)."""
-        self.error.content = f"**⚠ {html.escape(message)}**" if message else ""
+        self.error.content = warning(message) if message else ""
         self.error.visible = bool(message)
 
     def remove(self) -> None:

@@ -8,11 +8,13 @@ from __future__ import annotations
 
 import html
 import io
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from maniplab.errors import ManiplabError
+from maniplab.gui.text import warning
 from maniplab.sim import params
 from maniplab.sim.run import Run
 from maniplab.viz.compare import parameters
@@ -92,22 +94,23 @@ class RunsTab:
 
     def rename(self) -> None:
         """Rename the chosen run."""
-        try:
-            self.app.workspace.rename_run(self.chosen.value, self.new_name.value.strip())
-        except (ManiplabError, OSError) as exc:
-            self.message.content = f"**⚠ {html.escape(str(exc))}**"
-            return
-        self.message.content = f"renamed '{self.chosen.value}' to '{self.new_name.value}'"
-        self.app.runs_changed()
+        old, new = self.chosen.value, self.new_name.value.strip()
+        self._change(lambda: self.app.workspace.rename_run(old, new),
+                     f"renamed '{old}' to '{new}'")
 
     def delete(self) -> None:
         """Delete the chosen run."""
+        name = self.chosen.value
+        self._change(lambda: self.app.workspace.delete_run(name), f"deleted '{name}'")
+
+    def _change(self, action: Callable[[], None], done: str) -> None:
+        """Change the stored runs by ``action()``; say ``done``, or the one-line error."""
         try:
-            self.app.workspace.delete_run(self.chosen.value)
+            action()
         except (ManiplabError, OSError) as exc:
-            self.message.content = f"**⚠ {html.escape(str(exc))}**"
+            self.message.content = warning(exc)
             return
-        self.message.content = f"deleted '{self.chosen.value}'"
+        self.message.content = done
         self.app.runs_changed()
 
     def plot(self) -> None:
@@ -122,7 +125,7 @@ class RunsTab:
             runs = [self.app.workspace.load_run(n) for n in names]
             figure = compare(runs, signals, labels=legend(runs, names))
         except (ManiplabError, OSError, ValueError) as exc:
-            self.message.content = f"**⚠ {html.escape(str(exc))}**"
+            self.message.content = warning(exc)
             return
         self.figure.image = _pixels(figure)
         self.figure.visible = True

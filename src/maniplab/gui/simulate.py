@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from maniplab.errors import ManiplabError
-from maniplab.gui.configure import home
+from maniplab.gui.text import warning
 from maniplab.sim.grammar import parse_input
 
 if TYPE_CHECKING:
@@ -120,7 +120,7 @@ class SimulateTab:
             self.term_joint.options = names
             self.target_joint.options = [ALL, *names]
         self.payload.value = spec.end_effector.mass
-        self._reset_target(spec)
+        self._reset_target()
 
     def _label_numbers(self) -> None:
         first, second = KINDS[self.kind.value]
@@ -169,18 +169,17 @@ class SimulateTab:
         return f"stored run '{stored}': {run.health.verdict}"
 
     def _fail(self, message: str | None) -> None:
-        self.input_error.content = f"**⚠ {html.escape(message)}**" if message else ""
+        self.input_error.content = warning(message) if message else ""
         self.input_error.visible = bool(message)
 
     # --- closed loop ----------------------------------------------------------------------------
 
-    def _reset_target(self, spec: ManipulatorSpec) -> None:
-        arm = self.app.configure.arm3d if hasattr(self.app, "configure") else None
-        if arm is None:
-            return
-        arm.view.pose(home(spec))
-        self.target.value = _rounded(arm.end_effector)
-        self._place_gizmo()
+    def _reset_target(self) -> None:
+        """Put the target at the end-effector of the arm Configure shows (at its home pose)."""
+        arm = self.app.configure.arm3d
+        if arm is not None:
+            self.target.value = _rounded(arm.end_effector)
+            self._place_gizmo()
 
     def _place_gizmo(self) -> None:
         position = np.asarray(self.target.value, dtype=float)

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 from maniplab.errors import ManiplabError
 from maniplab.gui.replay import Replay, replay_html, stage
 from maniplab.gui.runs import legend
+from maniplab.gui.text import warning
 from maniplab.viz import palette
 
 if TYPE_CHECKING:
@@ -60,7 +61,7 @@ class WatchTab:
                 replay = Replay(self.app.server.scene, runs, FPS)
                 self.replay = replay
         except (ManiplabError, OSError) as exc:
-            self.message.content = f"**⚠ {html.escape(str(exc))}**"
+            self.message.content = warning(exc)
             return
         self._set_arm_visible(False)
         stage(self.app.server, [run.spec for run in runs])
@@ -124,7 +125,7 @@ class WatchTab:
         """Write the ticked runs' replay as an offline HTML page and send it to the browser."""
         names = self.app.runs.selected()
         if not names:
-            self.message.content = "**⚠ tick the runs to export in the Runs tab**"
+            self.message.content = warning("tick the runs to export in the Runs tab")
             return
 
         def work() -> str:

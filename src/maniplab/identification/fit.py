@@ -191,10 +191,10 @@ def identify(spec: ManipulatorSpec | str | os.PathLike[str],
         x = problem.x0()
         for stage in ("unit scales", "measured precision"):
             bar.start(f"fitting with {stage}")
-            if stage != "unit scales":
-                problem.reweight(x)
             if stage == "unit scales":
                 x = problem.scan(x, pool)
+            else:
+                problem.reweight(x)
             x = _solve(problem, x, loss, max_evaluations, pool, bar)
             bar.step(f"fitted with {stage}")
         return problem.result(x, pool)
@@ -336,13 +336,14 @@ class _Problem:
         local solver started on a plateau sees no slope. The grid spans
         :data:`SCAN_SPAN` of the start in steps of :data:`SCAN_STEP`, within the bounds."""
         lower, upper = self.bounds()
-        best = float(self.residual_at(x) @ self.residual_at(x))
+        r = self.residual_at(x)
+        best = float(r @ r)
         for _ in range(SCAN_ROUNDS):
             moved = False
             for i in range(len(self.parameters)):
                 grid = x[i] + np.arange(-SCAN_SPAN, SCAN_SPAN + 1e-9, SCAN_STEP)
                 grid = grid[(grid > lower[i]) & (grid < upper[i]) & (grid != x[i])]
-                points = [np.where(np.arange(len(x)) == i, g, x) for g in grid]
+                points = [_along(x, i, g) for g in grid]
                 costs = [float(r @ r) for r in self.residuals(points, pool)]
                 if costs and min(costs) < best:
                     x, best, moved = points[int(np.argmin(costs))], min(costs), True
@@ -418,8 +419,7 @@ class _Problem:
         reject it: the cost is walked along each axis in steps of half its conditional standard
         deviation ``sigma`` (p,) until it stays above the lowest cost + 3.84 s² + 2ρ. ρ is the
         largest spike or dip on any axis's walk (a cost above or below both its neighbours, one of
-        the three within the accepted costs):
-        zero on a smooth valley, else the height of the steps stick/slip puts in the cost (a
+        the three within the accepted costs): zero on a smooth valley, else the height of the steps stick/slip puts in the cost (a
         joint that sticks one plant step earlier), by which the true values may sit above the
         best. The walks are taken again once every axis has given its spikes."""
         walks: list[dict[float, float]] = [{0.0: cost} for _ in sigma]
@@ -458,7 +458,7 @@ class _Problem:
             steps = steps[(x[i] + steps > lower[i]) & (x[i] + steps < upper[i])]
             if not len(steps):
                 return
-            points = [np.where(np.arange(len(x)) == i, x[i] + d, x) for d in steps]
+            points = [_along(x, i, x[i] + d) for d in steps]
             walked.update(zip(steps.tolist(), (float(v @ v) for v in self.residuals(points, pool))))
 
     def curvature(self, x: np.ndarray, cost: float, variance: float, guess: np.ndarray,
@@ -510,6 +510,13 @@ class _Problem:
             for k in keys:
                 squares.setdefault(k[0], []).extend((sim[k] - e.measured[k]) ** 2)
         return {s: math.sqrt(float(np.mean(v))) for s, v in squares.items()}
+
+
+def _along(x: np.ndarray, i: int, value: float) -> np.ndarray:
+    """``x`` with its entry ``i`` set to ``value`` (a point on axis i through x)."""
+    point = np.array(x, dtype=float)
+    point[i] = value
+    return point
 
 
 def _spikes(walked: dict[float, float], ceiling: float) -> float:
