@@ -3,8 +3,9 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
+FMPY := .venv-fmpy/bin/fmpy
 
-.PHONY: demo test lint docs clean browser
+.PHONY: demo test lint docs clean browser octave
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -22,7 +23,7 @@ lint: $(STAMP)
 	$(BIN)/ruff check src tests examples benchmarks
 	$(BIN)/mypy
 
-test: lint browser
+test: lint browser octave $(FMPY)
 	$(BIN)/python -m pytest -n 2
 
 # the GUI's tests drive a real headless browser: Debian's chromium and its driver
@@ -31,9 +32,20 @@ browser:
 	  apt-get install -y -qq chromium chromium-driver >/dev/null; } || \
 	  { echo "make test needs chromium and chromium-driver: sudo apt-get install chromium chromium-driver" >&2; exit 1; }
 
+# the MATLAB export's tests run the generated functions in GNU Octave (Debian's octave)
+octave:
+	@command -v octave-cli >/dev/null || { [ "$$(id -u)" = 0 ] && apt-get update -qq && \
+	  apt-get install -y -qq --no-install-recommends octave >/dev/null; } || \
+	  { echo "make test needs GNU Octave: sudo apt-get install octave" >&2; exit 1; }
+
+# the FMU's tests load it in a virtual environment that has FMPy and nothing of maniplab
+$(FMPY):
+	$(PYTHON) -m venv .venv-fmpy
+	.venv-fmpy/bin/python -m pip install --quiet 'fmpy>=0.3.20'
+
 # the documentation site in site/, offline and strict (tests/test_docs.py builds it too)
 docs: $(STAMP)
 	NO_MKDOCS_2_WARNING=1 $(BIN)/python -m mkdocs build --strict -d site
 
 clean:
-	rm -rf $(VENV) out .pytest_cache .hypothesis build src/*.egg-info
+	rm -rf $(VENV) .venv-fmpy out .pytest_cache .hypothesis build src/*.egg-info

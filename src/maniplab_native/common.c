@@ -73,8 +73,10 @@ double ml_control(const mjModel* m, const mjData* d, int actuator) {
   return u;
 }
 
+#ifndef ML_NO_LIB_INIT /* an FMU registers its plugins itself, under names of its own */
 mjPLUGIN_LIB_INIT(maniplab) {
-  ml_register_hydraulic();
-  ml_register_cylinder();
-  ml_register_lugre();
+  ml_register_hydraulic("maniplab.hydraulic");
+  ml_register_cylinder("maniplab.cylinder");
+  ml_register_lugre("maniplab.lugre");
 }
+#endif

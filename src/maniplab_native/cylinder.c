@@ -146,10 +146,10 @@ static void compute(const mjModel* m, mjData* d, int instance, int capability_bi
   d->actuator_force[c->actuator] = ml_chambers_force_law(&c->law, x[0], x[1]);
 }
 
-void ml_register_cylinder(void) {
+void ml_register_cylinder(const char* name) {
   mjpPlugin plugin;
   mjp_defaultPlugin(&plugin);
-  plugin.name = PLUGIN;
+  plugin.name = name;
   plugin.capabilityflags |= mjPLUGIN_ACTUATOR;
   plugin.nattribute = sizeof(kAttributes) / sizeof(kAttributes[0]);
   plugin.attributes = kAttributes;

@@ -168,10 +168,10 @@ static void compute(const mjModel* m, mjData* d, int instance, int capability_bi
   d->actuator_force[c->actuator] = c->law.area * dP;
 }
 
-void ml_register_hydraulic(void) {
+void ml_register_hydraulic(const char* name) {
   mjpPlugin plugin;
   mjp_defaultPlugin(&plugin);
-  plugin.name = PLUGIN;
+  plugin.name = name;
   plugin.capabilityflags |= mjPLUGIN_ACTUATOR;
   plugin.nattribute = sizeof(kAttributes) / sizeof(kAttributes[0]);
   plugin.attributes = kAttributes;

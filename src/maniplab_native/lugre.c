@@ -129,10 +129,10 @@ static void compute(const mjModel* m, mjData* d, int instance, int capability_bi
   d->actuator_force[b->actuator] = -(b->sigma0 * z + b->sigma1 * zdot);
 }
 
-void ml_register_lugre(void) {
+void ml_register_lugre(const char* name) {
   mjpPlugin plugin;
   mjp_defaultPlugin(&plugin);
-  plugin.name = PLUGIN;
+  plugin.name = name;
   plugin.capabilityflags |= mjPLUGIN_ACTUATOR;
   plugin.nattribute = sizeof(kAttributes) / sizeof(kAttributes[0]);
   plugin.attributes = kAttributes;

@@ -27,8 +27,11 @@ int ml_instance_actuator(const mjModel* m, int instance, const char* plugin);
 /* The actuator's control, clipped to its ctrlrange when it has one. */
 double ml_control(const mjModel* m, const mjData* d, int actuator);
 
-void ml_register_hydraulic(void);
-void ml_register_cylinder(void);
-void ml_register_lugre(void);
+/* Register a plugin with MuJoCo under `name` (the library: "maniplab.hydraulic"...; an FMU: names
+   of its own, so that several FMUs and maniplab itself can share one libmujoco). The name must
+   outlive the registration. */
+void ml_register_hydraulic(const char* name);
+void ml_register_cylinder(const char* name);
+void ml_register_lugre(const char* name);
 
 #endif
