@@ -29,15 +29,18 @@ def add(sub: argparse._SubParsersAction) -> None:
     validate.set_defaults(func=_cmd_validate)
 
     model = sub.add_parser(
-        "model", help="write the arm's analytic model (LaTeX, Markdown, Python or C)",
+        "model", help="write the arm's analytic model (LaTeX, Markdown, Python, C or MATLAB)",
         description="Write the analytic model M, C, G, Fv: readable (latex, markdown: parameters as "
                     "symbols, cse form for large arms) or as code to drop into another project "
-                    "(python: math and numpy only; c: math.h only).")
+                    "(python: math and numpy only; c: math.h only; matlab: a folder of .m "
+                    "functions for MATLAB and GNU Octave).")
     spec_argument(model)
-    model.add_argument("-f", "--format", choices=("latex", "markdown", "python", "c"),
-                       help="output format (default: from the file's suffix .tex, .md, .py, .c)")
-    model.add_argument("-o", "--output", required=True, type=output_file, metavar="FILE",
-                       help="the file to write")
+    model.add_argument("-f", "--format", choices=("latex", "markdown", "python", "c", "matlab"),
+                       help="output format (default: from the file's suffix .tex, .md, .py, .c; "
+                            "matlab must be given)")
+    model.add_argument("-o", "--output", required=True, metavar="PATH",
+                       help="the file to write; for matlab the folder to write the .m files to "
+                            "(created when missing; other files in it stay)")
     model.add_argument("--symbolic", default="mass,length,payload", metavar="GROUPS",
                        help="parameter groups kept as symbols in latex/markdown, comma-separated, "
                             "from mass, length, com, inertia, payload, offset, gravity, friction; "
@@ -76,15 +79,34 @@ def _cmd_validate(args: argparse.Namespace) -> int:
 
 
 def _cmd_model(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
     import maniplab as ml
-    from maniplab.atomic import write_text
+    from maniplab.atomic import check_target, write_text
     from maniplab.model.export import SUFFIXES, export_model
     from maniplab.model.parameters import GROUPS
 
-    fmt = args.format or SUFFIXES.get(args.output.suffix.lower())
+    output = Path(args.output)
+    fmt = args.format or SUFFIXES.get(output.suffix.lower())
+    if fmt is None and output.is_dir():
+        raise ml.ManiplabError(f"{output} is a folder: give --format matlab to write the MATLAB "
+                               "functions into it, or name a .tex, .md, .py or .c file")
     if fmt is None:
-        raise ml.ManiplabError(f"cannot tell the format from '{args.output.name}'; give --format "
-                               "(latex, markdown, python or c) or a .tex, .md, .py or .c file")
+        raise ml.ManiplabError(f"cannot tell the format from '{output.name}'; give --format "
+                               "(latex, markdown, python, c or matlab) or a .tex, .md, .py or .c "
+                               "file")
+    if fmt == "matlab":
+        from maniplab.model.matlab import export_matlab, matlab_prefix
+
+        if output.exists() and not output.is_dir():
+            raise ml.ManiplabError(f"{output}: exists and is not a folder (-o names the folder "
+                                   "of the MATLAB functions)")
+        spec = ml.resolve_spec(args.spec)
+        files = export_matlab(spec, output)
+        print(f"wrote {len(files)} files {matlab_prefix(spec.name)}_* to {output} ({spec.name}, "
+              f"{spec.n} joints, matlab)")
+        return 0
+    check_target(output)  # a folder or device named as the file: refused before any work
     symbolic = [g.strip() for g in args.symbolic.split(",") if g.strip()]
     unknown = [g for g in symbolic if g not in GROUPS]
     if unknown:
@@ -92,6 +114,6 @@ def _cmd_model(args: argparse.Namespace) -> int:
                                f"some of {', '.join(GROUPS)}")
     spec = ml.resolve_spec(args.spec)
     text = export_model(spec, fmt, symbolic)
-    write_text(args.output, text)
-    print(f"wrote {args.output} ({spec.name}, {spec.n} joints, {fmt})")
+    write_text(output, text)
+    print(f"wrote {output} ({spec.name}, {spec.n} joints, {fmt})")
     return 0

@@ -334,6 +334,52 @@ def python_function(k: TapeKernel, name: str | None = None) -> str:
     return "\n".join(lines)
 
 
+def matlab_function(k: TapeKernel, name: str | None = None, output: str = "out",
+                    header: Sequence[str] = ()) -> str:
+    """MATLAB/GNU Octave definition ``function <output> = <name>(q[, qd[, qdd]], p)``.
+
+    One statement per recorded operation (``t5 = q0*t3;``), inputs read 1-based (``q0 = q(1);``,
+    so q may be a row or a column), literals at full precision (repr: 17 significant digits, which
+    MATLAB reads back to the same double). The output is preallocated with ``zeros`` and filled
+    entry by entry in its own shape: an (r, c) output is an r-by-c matrix, an (n,) output an n-by-1
+    column. Only scalar ``*`` and ``/`` on scalars are printed, so no ``.*`` is needed.
+
+    Args:
+        k: a kernel with one output (not ``mass_bias``).
+        name: the function's name (default the kernel's).
+        output: the output variable's name.
+        header: lines inserted after the signature (help text, argument checks), as given.
+    """
+    if k.second:
+        raise ValueError(f"matlab_function prints kernels with one output, not {k.name!r}")
+
+    def operand(x: Num) -> str:
+        if isinstance(x, Var):
+            return x.tape.stmts[x.index].name
+        return f"({_literal(x)})" if x < 0 else _literal(x)
+
+    args = ["q", "qd", "qdd"][:k.nin] + ["p"]
+    lines = [f"function {output} = {name or k.name}({', '.join(args)})", *header]
+    for s in k.stmts:
+        if s.op == "in":
+            lines.append(f"{s.name} = {s.args[0]}({s.args[1] + 1});")
+        elif s.op in _INFIX:
+            lines.append(f"{s.name} = {operand(s.args[0])}{_INFIX[s.op]}{operand(s.args[1])};")
+        elif s.op == "neg":
+            lines.append(f"{s.name} = -{operand(s.args[0])};")
+        else:
+            lines.append(f"{s.name} = {s.op}({operand(s.args[0])});")
+    rows, cols = (k.shape[0], 1) if len(k.shape) == 1 else k.shape
+    lines.append(f"{output} = zeros({rows}, {cols});")
+    for i, o in enumerate(k.outputs):
+        if isinstance(o, float) and o == 0.0 and str(o) == "0.0":
+            continue  # zeros() has it (a -0.0 is written, to keep its sign)
+        where = f"{i + 1}" if len(k.shape) == 1 else f"{i // cols + 1}, {i % cols + 1}"
+        lines.append(f"{output}({where}) = {operand(o)};")
+    lines.append("end")
+    return "\n".join(lines)
+
+
 def _unpack_inputs(k: TapeKernel) -> list[str]:
     """One statement per input array, ``q0, _, q2 = q[0:3]``: unpacking beats indexing."""
     names: dict[str, dict[int, str]] = {}
