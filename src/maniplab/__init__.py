@@ -7,6 +7,7 @@ Public API::
     ml.load_plugins("mypkg.motors")          # before a spec names type: "mypkg.motors:Motor"
     spec2 = spec.with_overrides({"end_effector.mass": 800.0})
     xml = ml.to_mjcf(spec)                   # MJCF text at full float precision
+    urdf = ml.to_urdf(spec)                  # URDF text (Pinocchio, ROS) at full precision
     model = ml.build_model(spec)             # mujoco.MjModel
     run = ml.simulate(spec, inputs={"q1": ml.signals.step(0.5, t0=0.1)}, duration=2.0)
     runs = ml.sweep(spec, {"end_effector.mass": [3000, 5000]}, out="runs/", duration=2.0)
@@ -75,6 +76,7 @@ from maniplab.spec import (
     TorqueActuator,
     load_spec,
 )
+from maniplab.urdf import to_urdf
 from maniplab.viz import render, write_video
 
 try:
@@ -129,5 +131,6 @@ __all__ = [
     "simulate",
     "sweep",
     "to_mjcf",
+    "to_urdf",
     "write_video",
 ]

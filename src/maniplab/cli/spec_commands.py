@@ -16,11 +16,16 @@ def add(sub: argparse._SubParsersAction) -> None:
     plugin_option(info)
     info.set_defaults(func=_cmd_info)
 
-    export = sub.add_parser("export", help="write the arm's MJCF model",
-                            description="Write the MuJoCo model (MJCF, full float precision).")
+    export = sub.add_parser("export", help="write the arm's model as MJCF or URDF",
+                            description="Write the MuJoCo model (MJCF) or the URDF (links, joints, "
+                                        "limits, inertias, and maniplab's actuator and friction "
+                                        "parameters in an extension element), at full float "
+                                        "precision.")
     spec_argument(export)
+    export.add_argument("-f", "--format", choices=("mjcf", "urdf"),
+                        help="output format (default: urdf for a .urdf file, else mjcf)")
     export.add_argument("-o", "--output", required=True, type=output_file, metavar="FILE",
-                        help="the MJCF file to write (e.g. arm.xml)")
+                        help="the file to write (e.g. arm.xml, arm.urdf)")
     export.set_defaults(func=_cmd_export)
 
     validate = sub.add_parser("validate", help="check a spec and that MuJoCo can build it",
@@ -62,9 +67,15 @@ def _cmd_info(args: argparse.Namespace) -> int:
 def _cmd_export(args: argparse.Namespace) -> int:
     import maniplab as ml
 
+    fmt = args.format or ("urdf" if args.output.suffix.lower() == ".urdf" else "mjcf")
     spec = ml.resolve_spec(args.spec)
-    ml.mjcf_gen.write_mjcf(spec, args.output)
-    print(f"wrote {args.output} ({spec.name}, {spec.n} joints)")
+    if fmt == "urdf":
+        from maniplab.urdf import write_urdf
+
+        write_urdf(spec, args.output)
+    else:
+        ml.mjcf_gen.write_mjcf(spec, args.output)
+    print(f"wrote {args.output} ({spec.name}, {spec.n} joints, {fmt})")
     return 0
 
 
