@@ -153,6 +153,28 @@ def _libmujoco(mujoco_dir: Path) -> Path:
     return libs[0]
 
 
+def mujoco_paths() -> tuple[Path, Path]:
+    """The installed mujoco package's folder (its headers in ``include/``) and its ``libmujoco``.
+
+    Raises:
+        NativeBuildError: mujoco is not installed, or has no library and headers.
+    """
+    mujoco_dir = _mujoco_dir()
+    return mujoco_dir, _libmujoco(mujoco_dir)
+
+
+def mujoco_licences() -> list[Path]:
+    """The installed mujoco wheel's licence files (LICENSE and the third-party notices)."""
+    from importlib.metadata import PackageNotFoundError, distribution
+
+    try:
+        files = distribution("mujoco").files or []
+    except PackageNotFoundError:
+        return []
+    return [Path(str(f.locate())) for f in files
+            if "licenses/" in str(f) or Path(str(f)).name.startswith("LICENSE")]
+
+
 def _key(mujoco_dir: Path, lib: Path, compiler: tuple[str, ...]) -> str:
     digest = hashlib.sha256()
     for path in sources():

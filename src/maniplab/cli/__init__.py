@@ -14,6 +14,7 @@ from collections.abc import Sequence
 from maniplab.cli import (
     control_command,
     demo_command,
+    fmu_command,
     gui_command,
     identify_command,
     loadchart_command,
@@ -39,7 +40,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
     for module in (spec_commands, sim_commands, control_command, tune_command,
                    loadchart_command, identify_command, render_command, demo_command,
-                   gui_command):
+                   gui_command, fmu_command):
         module.add(sub)
     return parser
 

@@ -162,6 +162,31 @@ class Plant:
         self._nan = np.full(self.n, np.nan)
         self.reset()
 
+    def native_config(self) -> dict[str, list[Any]]:
+        """The C plant's per-joint settings (``ml_plant_config``'s arrays, by field name): joint
+        limits (±inf: none), command limits, friction (slip flags, Coulomb, stiction, Stribeck
+        and stick velocities) and the actuator states' bounds (activation address, bound,
+        joint). The FMU export writes the same into its C code."""
+        joints, act = self.spec.joints, self._actuation
+        return {
+            "lower": list(self._lower), "upper": list(self._upper),
+            "command_limit": list(act.limit),
+            "slip": [int(j.friction.model is FrictionModel.hybrid) for j in joints],
+            "coulomb": [j.friction.coulomb for j in joints],
+            "stiction": [j.friction.static for j in joints],
+            "stribeck": [j.friction.stribeck_velocity for j in joints],
+            "stick_velocity": [j.friction.stick_velocity for j in joints],
+            "bound_adr": [i for _, i, _ in act.bounds],
+            "bound_value": [b for _, _, b in act.bounds],
+            "bound_joint": [j for j, _, _ in act.bounds],
+        }
+
+    @property
+    def python_actuators(self) -> list[int]:
+        """The joints whose actuator runs Python while the plant steps (MuJoCo's callbacks, or a
+        check of its states after every step)."""
+        return sorted(set(self._actuation.integrated) | set(self._actuation.unbounded))
+
     def _python_hooks(self) -> PythonHooks | None:
         """The C plant's hooks into the Python actuators, or None when there are none."""
         act = self._actuation
@@ -420,28 +445,21 @@ def _motion_problem(warning: int) -> str:
     return f"a NaN, infinite or huge value (> 1e10) in {names.get(warning, 'QVEL')}"
 
 
+_INT_FIELDS = ("slip", "bound_adr", "bound_joint")
+
+
 class _CPlant:
     """The C plant of a :class:`Plant` (``ml_plant``): made, called and freed here."""
 
     def __init__(self, plant: Plant) -> None:
         self.lib = native.library()
         self.n, self.na = plant.n, plant.model.na
-        joints = plant.spec.joints
-        hybrid = [j.friction.model is FrictionModel.hybrid for j in joints]
-        act = plant._actuation
-        keep = {
-            "lower": native.doubles(plant._lower), "upper": native.doubles(plant._upper),
-            "command_limit": native.doubles(act.limit), "slip": native.ints(hybrid),
-            "coulomb": native.doubles([j.friction.coulomb for j in joints]),
-            "stiction": native.doubles([j.friction.static for j in joints]),
-            "stribeck": native.doubles([j.friction.stribeck_velocity for j in joints]),
-            "stick_velocity": native.doubles([j.friction.stick_velocity for j in joints]),
-            "bound_adr": native.ints([i for _, i, _ in act.bounds]),
-            "bound_value": native.doubles([b for _, _, b in act.bounds]),
-            "bound_joint": native.ints([j for j, _, _ in act.bounds]),
-        }
+        arrays = plant.native_config()
+        keep = {k: native.ints(v) if k in _INT_FIELDS else native.doubles(v)
+                for k, v in arrays.items()}
         config = native.Config(n=plant.n, substeps=plant.substeps,
-                               hold_inertia=plant.hold_inertia, nbounds=len(act.bounds), **keep)
+                               hold_inertia=plant.hold_inertia,
+                               nbounds=len(arrays["bound_adr"]), **keep)
         self.model, self.data = plant._model, plant.data  # kept alive with the C plant
         self.ptr = self.lib.ml_plant_new(self.model._address, self.data._address,
                                          ctypes.byref(config))

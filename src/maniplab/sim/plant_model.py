@@ -35,11 +35,18 @@ def build_plant_model(spec: ManipulatorSpec, *, dt: float, integrator: int) -> m
     Returns:
         The model; actuator i < n drives joint i, LuGre's bristle actuators follow.
     """
+    return compile_model(plant_mjspec(spec, dt=dt, integrator=integrator), spec)
+
+
+DISABLED = ("limit", "frictionloss", "contact", "autoreset")
+"""MuJoCo features the plant turns off (the names of MJCF's ``<option><flag>`` attributes)."""
+
+
+def plant_mjspec(spec: ManipulatorSpec, *, dt: float, integrator: int) -> mujoco.MjSpec:
+    """The MjSpec that :func:`build_plant_model` compiles (the arguments are the same)."""
     s = build_mjspec(spec)
     s.option.timestep = dt
     s.option.integrator = integrator
-    s.option.disableflags |= (mujoco.mjtDisableBit.mjDSBL_LIMIT
-                              | mujoco.mjtDisableBit.mjDSBL_FRICTIONLOSS
-                              | mujoco.mjtDisableBit.mjDSBL_CONTACT
-                              | mujoco.mjtDisableBit.mjDSBL_AUTORESET)
-    return compile_model(s, spec)
+    for name in DISABLED:
+        s.option.disableflags |= getattr(mujoco.mjtDisableBit, f"mjDSBL_{name.upper()}")
+    return s
