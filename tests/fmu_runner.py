@@ -36,11 +36,13 @@ def run(job: dict) -> None:
 
 
 def main() -> None:
-    for job in json.load(open(sys.argv[1])):
+    with open(sys.argv[1]) as file:
+        jobs = json.load(file)
+    for job in jobs:
         try:
             run(job)
             print("OK", job["fmu"], flush=True)
-        except Exception as exc:  # reported per job: the test reads which failed and why
+        except Exception as exc:  # noqa: BLE001 (reported per job: the test reads why it failed)
             print("FAILED", job["fmu"] + ":", exc, flush=True)
 
 
