@@ -1,4 +1,4 @@
-"""Commands on one spec: info, export (MJCF), validate, model (the analytic model)."""
+"""Commands on one spec: info, export (MJCF or URDF), validate, model (the analytic model, also as MATLAB)."""
 
 from __future__ import annotations
 
