@@ -76,9 +76,10 @@ def main() -> None:
             began = time.perf_counter()
             build_fmu(spec, fmu, progress=False)
             builds.append(time.perf_counter() - began)
-        inputs = {name: (lambda t, a=0.4 * (lim if np.isfinite(lim) else 1.0):
-                         a * np.sin(2 * np.pi * t))
-                  for name, lim in zip(plant.joint_names, plant.command_limit)}
+        amplitudes = {name: 0.4 * (lim if np.isfinite(lim) else 1.0)
+                      for name, lim in zip(plant.joint_names, plant.command_limit)}
+        inputs = {name: (lambda t, a=a: a * np.sin(2 * np.pi * t))
+                  for name, a in amplitudes.items()}
         peer = []
         for _ in range(args.repeats):
             began = time.perf_counter()
