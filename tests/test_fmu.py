@@ -42,8 +42,9 @@ def fmpy_python(tmp_path_factory: pytest.TempPathFactory) -> Path:
     python = ROOT / ".venv-fmpy" / "bin" / "python"
     with open(Path("/tmp") / "maniplab-fmpy-venv.lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)  # xdist workers: one makes it, the others wait
-        if subprocess.run([str(python), "-c", "import fmpy"], capture_output=True,
-                          check=False).returncode if python.exists() else True:
+        has_fmpy = python.exists() and subprocess.run(
+            [str(python), "-c", "import fmpy"], capture_output=True, check=False).returncode == 0
+        if not has_fmpy:
             subprocess.run([sys.executable, "-m", "venv", "--clear", str(python.parents[1])],
                            check=True)
             subprocess.run([str(python), "-m", "pip", "install", "--quiet", "fmpy>=0.3.20"],
@@ -107,21 +108,25 @@ def steps_and_sines(spec: ml.ManipulatorSpec) -> dict[str, Any]:
     return inputs
 
 
-def load(path: Path) -> Any:
-    return np.load(path)
+def check_against_simulate(arm: str | Path, duration: float, python: Path,
+                           folder: Path) -> ml.Run:
+    """Build the arm's FMU, run it in FMPy under :func:`steps_and_sines` and assert that FMPy's
+    validation passes and its outputs match ``ml.simulate``'s run, which is returned."""
+    spec = ml.resolve_spec(arm)
+    fmu = build_fmu(spec, folder / "arm.fmu", progress=False)
+    inputs = steps_and_sines(spec)
+    run = ml.simulate(spec, inputs=inputs, duration=duration, sample_dt=Plant(spec).dt,
+                      progress=False)
+    log = run_fmpy(python, [job(fmu, folder / "out.npz", run, inputs)], folder)
+    assert "validation: []" in log and f"OK {fmu}" in log, log
+    assert_matches(run, np.load(folder / "out.npz"))
+    return run
 
 
 # --- the two arms of the issue, 5 s ----------------------------------------------------------------
 @pytest.mark.parametrize("arm", ["erector", "crane3"])
 def test_fmu_matches_simulate_over_five_seconds(arm, fmpy_python, tmp_path) -> None:
-    spec = ml.resolve_spec(arm)
-    fmu = build_fmu(spec, tmp_path / f"{arm}.fmu", progress=False)
-    inputs = steps_and_sines(spec)
-    run = ml.simulate(spec, inputs=inputs, duration=5.0, sample_dt=Plant(spec).dt,
-                      progress=False)
-    log = run_fmpy(fmpy_python, [job(fmu, tmp_path / "out.npz", run, inputs)], tmp_path)
-    assert "validation: []" in log and f"OK {fmu}" in log, log
-    assert_matches(run, load(tmp_path / "out.npz"))
+    run = check_against_simulate(arm, 5.0, fmpy_python, tmp_path)
     moved = np.ptp(run["q"], axis=0)
     assert np.all(moved[1::2] > 1e-3), moved  # the steps moved their joints: a real comparison
 
@@ -144,7 +149,7 @@ def test_parameters_match_simulate_with_overrides(fmpy_python, tmp_path) -> None
     log = run_fmpy(fmpy_python, [job(fmu, tmp_path / "out.npz", run, inputs, start=start)],
                    tmp_path)
     assert f"OK {fmu}" in log, log
-    result = load(tmp_path / "out.npz")
+    result = np.load(tmp_path / "out.npz")
     assert_matches(run, result)
     assert result["q.telescope"][0] == 2.0  # q0 beyond the stroke is put on its limit
     assert np.max(np.abs(run["q"] - default["q"])) > 0.1  # the parameters changed the run
@@ -171,14 +176,7 @@ def test_bad_parameters_steps_and_inputs_fail_in_one_line(fmpy_python, tmp_path)
 @pytest.mark.parametrize("arm", ["erector_pinned", "excavator", "patu655", "planar2", *ARMS],
                          ids=lambda a: Path(a).stem)
 def test_fmu_of_every_arm_matches_simulate(arm, fmpy_python, tmp_path) -> None:
-    spec = ml.resolve_spec(arm)
-    fmu = build_fmu(spec, tmp_path / "arm.fmu", progress=False)
-    inputs = steps_and_sines(spec)
-    run = ml.simulate(spec, inputs=inputs, duration=1.0, sample_dt=Plant(spec).dt,
-                      progress=False)
-    log = run_fmpy(fmpy_python, [job(fmu, tmp_path / "out.npz", run, inputs)], tmp_path)
-    assert "validation: []" in log and f"OK {fmu}" in log, log
-    assert_matches(run, load(tmp_path / "out.npz"))
+    check_against_simulate(arm, 1.0, fmpy_python, tmp_path)
 
 
 # --- without FMPy ------------------------------------------------------------------------------

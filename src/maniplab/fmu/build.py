@@ -18,7 +18,6 @@ import json
 import math
 import os
 import platform
-import re
 import shutil
 import sys
 import tempfile
@@ -36,6 +35,7 @@ from maniplab.fmu.description import model_description
 from maniplab.fmu.errors import FmuError
 from maniplab.fmu.template import Parameter, fill, model_template
 from maniplab.fmu.variables import Variable, variables
+from maniplab.model.export import c_identifier
 from maniplab.progress import Progress
 from maniplab.sim.plant import Plant, SpecLike
 from maniplab_native import build as native_build
@@ -84,7 +84,7 @@ def build_fmu(spec: SpecLike, path: str | os.PathLike[str], *, step: float | Non
         bar.start("compiling")
         with tempfile.TemporaryDirectory(prefix="maniplab-fmu-") as tmp:
             guid = _guid(template, table, plant)
-            identifier = model_identifier(spec.name)
+            identifier = c_identifier(spec.name)  # the library's name
             folder = Path(tmp)
             lib = _compile(folder, identifier, config_header(plant, params, table, guid))
             bar.step("compiling")
@@ -99,12 +99,6 @@ def build_fmu(spec: SpecLike, path: str | os.PathLike[str], *, step: float | Non
     finally:
         bar.close()
     return out
-
-
-def model_identifier(name: str) -> str:
-    """The arm's name as a C identifier (the FMU's library and modelIdentifier)."""
-    ident = re.sub(r"\W", "_", name, flags=re.ASCII)
-    return ident if re.match(r"[A-Za-z_]", ident) else f"arm_{ident}"
 
 
 def _check_platform() -> None:

@@ -218,8 +218,10 @@ def _markdown_document(spec: ManipulatorSpec, doc: Readable) -> str:
 
 # --- code: Python module and C file --------------------------------------------------------------
 
-def _identifier(name: str) -> str:
-    ident = re.sub(r"\W", "_", name)
+def c_identifier(name: str) -> str:
+    """An arm's name as a C identifier: characters other than ASCII letters, digits and ``_``
+    become ``_``; a name that starts with a digit (or is empty) gets ``arm_`` in front."""
+    ident = re.sub(r"\W", "_", name, flags=re.ASCII)
     return ident if ident and not ident[0].isdigit() else f"arm_{ident}"
 
 
@@ -268,7 +270,7 @@ def c_file(spec: ManipulatorSpec) -> str:
     version = package_version()
     gen: Generated = generate(spec)
     kernels = {k.name: k for k in gen.kernels}
-    prefix = _identifier(spec.name)
+    prefix = c_identifier(spec.name)
     n, values = spec.n, gen.params.values.tolist()
     docs = "\n".join(f" *   void {prefix}_{name}({', '.join(f'const double *{a}' for a in args)}, "
                      f"double *out);  out: {kernels[name].shape}"

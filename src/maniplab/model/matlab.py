@@ -19,7 +19,7 @@ from pathlib import Path
 
 from maniplab.atomic import OutputError, check_target, write_text
 from maniplab.model.build import generate
-from maniplab.model.export import cylinder_terms
+from maniplab.model.export import c_identifier, cylinder_terms
 from maniplab.model.tape import matlab_function
 from maniplab.model.version import package_version
 from maniplab.spec import ManipulatorSpec
@@ -53,8 +53,8 @@ def matlab_prefix(name: str) -> str:
     with a letter gets ``arm_`` in front; the prefix is cut so that the longest function name
     (``<prefix>_inverse_dynamics``) stays within MATLAB's 63 characters.
     """
-    ident = re.sub(r"[^A-Za-z0-9_]", "_", name)
-    if not ident[:1].isalpha() or not ident[:1].isascii():
+    ident = c_identifier(name)
+    if not ident[0].isalpha():  # MATLAB's names start with a letter, C's may with "_"
         ident = f"arm_{ident}"
     return ident[:NAME_LIMIT - len("_inverse_dynamics")]
 
