@@ -554,6 +554,9 @@ static void clip(ml_plant* p, const double* u) {
 
 static int prepare(ml_plant* p, const double* u) {
   int n = p->n;
+  for (int j = 0; j < n; j++) {
+    if (!isfinite(u[j])) return fail(p, ML_BAD_COMMAND, j, -1);  /* clip would make NaN a limit */
+  }
   clip(p, u);
   start(p);
   memcpy(p->rq, p->q0, n * sizeof(double));
@@ -625,9 +628,18 @@ static void record_forces(const ml_plant* p, ml_run* r, int row) {
   memcpy(r->limit + (size_t)row * n, p->rlimit, n * sizeof(double));
 }
 
+/* A run's counts and times as the loop needs them (the caller checks them with a message; this
+   keeps the loop from dividing by zero or indexing outside its tables whoever calls it). */
+static int valid_run(const ml_run* r) {
+  return r->steps >= 0 && r->every >= 1 && r->k >= 0 && r->max_steps >= 0 && isfinite(r->t0) &&
+         isfinite(r->dt) && r->dt > 0.0 && isfinite(r->period) && r->period >= 0.0 &&
+         r->inputs_k0 >= 0 && r->inputs_k0 <= r->k && r->rows >= 0;
+}
+
 static int run(ml_plant* p, ml_run* r) {
   int n = p->n, taken = 0;
   double* u = p->command;
+  if (!valid_run(r)) return fail(p, ML_BAD_RUN, -1, -1);
   for (; r->k <= r->steps; r->k++) {
     int64_t k = r->k;
     double t = r->t0 + k * r->dt;
@@ -642,13 +654,9 @@ static int run(ml_plant* p, ml_run* r) {
     const double* in = r->inputs ? r->inputs + (size_t)(k - r->inputs_k0) * n : NULL;
     for (int j = 0; j < n; j++) {
       u[j] = in ? r->held[j] + in[j] : r->held[j];
-      if (!isfinite(u[j])) {
-        fail(p, ML_BAD_COMMAND, j, -1);
-        p->error.time = t;
-        return ML_BAD_COMMAND;
-      }
     }
     int status = prepare(p, u);
+    if (status == ML_BAD_COMMAND) p->error.time = t;
     if (status != ML_OK) return status;
     int record = k % r->every == 0 || k == r->steps;
     if (record) record_row(p, r, t);

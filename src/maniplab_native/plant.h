@@ -34,7 +34,9 @@ enum {
   ML_STATE_BOUND = 3,     /* an actuator state beyond its bound (err_joint, err_index: act adr) */
   ML_BAD_COMMAND = 4,     /* a non-finite command (err_joint) */
   ML_CONTROLLER_ERROR = 5,/* the controller returned non-zero */
-  ML_CALLBACK_ERROR = 6   /* a Python actuator callback or check failed */
+  ML_CALLBACK_ERROR = 6,  /* a Python actuator callback or check failed */
+  ML_BAD_RUN = 7          /* ml_plant_run: a count or time of the ml_run out of range (steps or k
+                             negative, every < 1, dt not positive and finite...) */
 };
 
 /* A controller the run loop calls at its samples: writes the commands u (n) for the state in

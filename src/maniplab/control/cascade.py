@@ -163,14 +163,26 @@ class CascadeController:
         self._extra = [k for k in self.log_signals if k not in _BUFFERS]
         """Signals only Python drives log (the C log has the others)."""
 
-    def reset(self) -> None:
-        """Clear the loops' states, the held command and the log."""
+    def reset(self, state: Any = None) -> None:
+        """Clear the loops' states, the held command and the log (``ml.simulate`` calls it at the
+        start of every run; ``state``, the plant's state then, is not needed)."""
         self._c.reset()
         for drive in self.drives:
             drive.reset()
         self._next = -math.inf
         self._command = np.zeros(self.n)
         self._python_log: dict[str, list[np.ndarray | None]] = {k: [] for k in self._extra}
+
+    def __deepcopy__(self, memo: dict[int, Any]) -> CascadeController:
+        """A controller of the same settings with its own compiled state and log, reset; the
+        analytic model (read-only) and the trajectory (frozen) are shared."""
+        return CascadeController(self.spec, self.trajectory, gains=self.gains, mode=self.mode,
+                                 model=self.model)
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        """Pickled as its settings: unpickled (in a worker process) it rebuilds its compiled
+        state, and its analytic model from the model cache, reset."""
+        return (_rebuild, (self.spec, self.trajectory, self.gains, self.mode))
 
     # --- the control law ---------------------------------------------------------------------
     def __call__(self, t: float, state: Any) -> np.ndarray:
@@ -256,7 +268,7 @@ class CascadeController:
             addresses; it keeps every buffer alive), or None when a joint's drive runs in Python
             (then call the controller itself). After the run, :meth:`signals`, :attr:`times`,
             :meth:`signals_at` and :meth:`annotate` show the samples it made, after any made
-            before (as calling the controller at those times would).
+            since the last :meth:`reset` (as calling the controller at those times would).
 
         Raises:
             ControlError: the plant has other joints than the controller's arm.
@@ -334,6 +346,12 @@ class CascadeController:
             raise ControlError(f"the run already has signals {clash}")
         meta = {**dict(run.meta), "control": self.settings()}
         return type(run)(t=run.t, signals={**run.signals, **extra}, spec=run.spec, meta=meta)
+
+
+def _rebuild(spec: ManipulatorSpec, trajectory: Trajectory, gains: ControlSpec,
+             mode: str) -> CascadeController:
+    """A pickled :class:`CascadeController` back (``CascadeController.__reduce__``)."""
+    return CascadeController(spec, trajectory, gains=gains, mode=mode)
 
 
 def _require_compiled(model: AnalyticModel) -> None:

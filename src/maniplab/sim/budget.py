@@ -30,6 +30,50 @@ _CGROUP_FILES = (("/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory.current"),
 """(limit, usage) files of the process's memory cgroup, v2 then v1, as a container sees them."""
 
 
+MIN_DT = 1e-9
+"""The shortest step a plant takes, s (a nanosecond: far below any arm's need, well above the
+steps whose counts overflow; a shorter one is refused in one line)."""
+
+MAX_STEPS = 2**53
+"""The most steps one run may take: every step's time t0 + k dt is then distinct and exact in
+k, and the count fits the C loop's 64-bit counters."""
+
+
+def check_step(dt: float, field: str = "dt") -> float:
+    """``dt`` as a float, when it is a step a plant can take.
+
+    Raises:
+        InputError: not a finite number of at least :data:`MIN_DT` seconds, naming ``field``.
+    """
+    try:
+        value = float(dt)
+    except (TypeError, ValueError):
+        raise InputError(f"{field} must be a number of seconds, got {dt!r}") from None
+    if not (math.isfinite(value) and value > 0.0):
+        raise InputError(f"{field} must be a positive number of seconds, got {dt!r}")
+    if value < MIN_DT:
+        raise InputError(f"{field} = {value:g} s is shorter than the shortest step a plant "
+                         f"takes, {MIN_DT:g} s")
+    return value
+
+
+def steps_of(duration: float, dt: float) -> int:
+    """The whole steps of ``dt`` in ``duration`` (at least one).
+
+    Raises:
+        InputError: ``duration`` not a positive finite number of seconds, or a run of more than
+            :data:`MAX_STEPS` steps (naming the longest duration at this step).
+    """
+    if isinstance(duration, bool) or not (isinstance(duration, (int, float)) and
+                                          math.isfinite(duration) and duration > 0.0):
+        raise InputError(f"duration must be a positive number of seconds, got {duration!r}")
+    ratio = duration / dt
+    if not ratio < MAX_STEPS:
+        raise InputError(f"duration = {duration:g} s is more steps of {dt:g} s than one run "
+                         f"takes ({MAX_STEPS:.3g}): at most {MAX_STEPS * dt:.3g} s at this step")
+    return max(1, round(ratio))
+
+
 def rows_of(steps: int, every: int) -> int:
     """The samples a run of ``steps`` steps records, one every ``every`` steps and the last."""
     return steps // every + 1 + (1 if steps % every else 0)
@@ -119,7 +163,7 @@ def suggest_sample_dt(duration: float, dt: float, bytes_per_sample: int,
         bytes_per_sample: bytes of one sample.
         budget: the bytes the samples may take.
     """
-    steps = max(1, round(duration / dt))
+    steps = steps_of(duration, dt)
     if rows_of(steps, steps) * bytes_per_sample > budget:
         return None
     exponent = math.floor(math.log10(dt))

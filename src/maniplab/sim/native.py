@@ -16,7 +16,8 @@ from typing import Any
 from maniplab.clib import Functions
 
 # plant.h: statuses
-OK, PAUSED, UNSTABLE_MOTION, STATE_BOUND, BAD_COMMAND, CONTROLLER_ERROR, CALLBACK_ERROR = range(7)
+(OK, PAUSED, UNSTABLE_MOTION, STATE_BOUND, BAD_COMMAND, CONTROLLER_ERROR, CALLBACK_ERROR,
+ BAD_RUN) = range(8)
 
 CONTROLLER = ctypes.CFUNCTYPE(c_int, c_void_p, c_double, c_void_p, c_void_p, POINTER(c_double))
 """``ml_controller_fn``: (context, t, model, data, u) -> status."""

@@ -47,6 +47,7 @@ from maniplab.mjcf_gen.builder import arm_step_limit
 from maniplab.mjcf_gen.timestep import default_step, round_down
 from maniplab.sim import native
 from maniplab.sim.actuation import Actuation
+from maniplab.sim.budget import check_step
 from maniplab.sim.callbacks import PluginCallbacks, PythonHooks
 from maniplab.sim.errors import InputError, InstabilityError, PluginError
 from maniplab.sim.layout import StateLayout
@@ -123,9 +124,7 @@ class Plant:
                  integrator: str = "RK4") -> None:
         self.spec = resolve_spec(spec)
         self.step_limit = arm_step_limit(self.spec)
-        self.dt = float(dt) if dt is not None else default_step(self.step_limit)
-        if not (self.dt > 0.0 and np.isfinite(self.dt)):
-            raise InputError(f"dt must be a positive number of seconds, got {dt!r}")
+        self.dt = check_step(dt) if dt is not None else default_step(self.step_limit)
         if self.step_limit.dt < MIN_STEP:
             raise InstabilityError(
                 f"{self.step_limit.describe()}, below the {MIN_STEP:g} s a simulation can afford: "
@@ -242,7 +241,7 @@ class Plant:
         if qd is not None:
             d.qvel[:] = self._joint_values("qd", qd, d.qvel)
         if t is not None:
-            d.time = float(t)
+            d.time = _start_time(t)
         for name, value in states.items():
             if name not in self.layout:
                 raise InputError(f"no state {name!r} in this plant; expected one of "
@@ -379,6 +378,9 @@ class Plant:
 
         Args:
             u: commands, one per joint (valve current A, or force N / torque N·m, or a plugin's).
+
+        Raises:
+            InputError: a command is NaN or infinite (naming the joint); the step is not taken.
         """
         self.check(self._c.prepare(u))
         self._prepared = True
@@ -418,6 +420,7 @@ class Plant:
         """Raise the error a call of the C plant returned (``native.OK``, ``PAUSED``: nothing).
 
         Raises:
+            InputError: a non-finite command (naming the joint), or a run's counts out of range.
             InstabilityError: unstable motion, or a state beyond its bound (naming the joint).
             PluginError: a Python actuator failed.
         """
@@ -428,6 +431,11 @@ class Plant:
         if status == native.UNSTABLE_MOTION:
             raise InstabilityError(_motion_problem(error.index), time=self.t, joint=joint,
                                    dt=self.dt)
+        if status == native.BAD_COMMAND:
+            raise InputError(f"joint {joint}: the command at t = {error.time:.6g} s is not a "
+                             f"finite number (NaN or infinity)")
+        if status == native.BAD_RUN:
+            raise InputError("the run's step, duration or recording interval is out of range")
         if status == native.STATE_BOUND:
             text = self._actuation.problem(error.joint, self.data.act, error.index)
             resolved = self._model.opt.timestep <= self.step_limit.dt
@@ -435,6 +443,22 @@ class Plant:
         if self._hooks is not None and self._hooks.error is not None:
             self._hooks.raise_error()
         raise PluginError(f"the plant stopped at t = {error.time:.6g} s (status {status})")
+
+
+MAX_TIME = 1e9
+"""The largest start time a plant takes, s (about 32 years): beyond it a step of 1 µs would be
+lost in the time's rounding."""
+
+
+def _start_time(t: Any) -> float:
+    """A start time, s, checked: finite and within ±:data:`MAX_TIME`."""
+    try:
+        value = float(t)
+    except (TypeError, ValueError):
+        raise InputError(f"t must be a number of seconds, got {t!r}") from None
+    if not (math.isfinite(value) and abs(value) <= MAX_TIME):
+        raise InputError(f"t must be a finite time within ±{MAX_TIME:g} s, got {t!r}")
+    return value
 
 
 def _motion_problem(warning: int) -> str:

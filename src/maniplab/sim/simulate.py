@@ -22,6 +22,7 @@ from maniplab.builtin import resolve_spec
 from maniplab.mjcf_gen.names import END_EFFECTOR
 from maniplab.progress import Progress
 from maniplab.sim import budget, native, recorder, store
+from maniplab.sim.claim import claimed
 from maniplab.sim.errors import InputError
 from maniplab.sim.plant import Plant, SpecLike, integrator_name
 from maniplab.sim.run import UNITS, Run
@@ -57,7 +58,10 @@ def simulate(spec_or_plant: SpecLike | Plant, *, inputs: Mapping[str | int, Any]
             array (n,) or a mapping joint -> value. It is called at its own sample time, its
             ``dt`` attribute (s; absent or None: every step), at the first step at or after each
             multiple of it, and its commands are held in between (zero-order hold). They add to
-            ``inputs`` (e.g. feed-forward signals plus feedback).
+            ``inputs`` (e.g. feed-forward signals plus feedback). Its ``reset(state)`` (or
+            ``reset()``), when it has one, is called before the first sample with the plant's
+            state, so no state carries over from an earlier run; a controller another thread's
+            run is using at the time is copied for this run (:mod:`~maniplab.sim.claim`).
         duration: simulated time, s (rounded to whole steps).
         dt: time step, s (default 1e-3; must match a given Plant's).
         overrides: dotted-path overrides of the spec (not with a Plant).
@@ -94,10 +98,8 @@ def simulate(spec_or_plant: SpecLike | Plant, *, inputs: Mapping[str | int, Any]
         SpecError: the spec or an override is invalid.
     """
     plant = _plant(spec_or_plant, dt=dt, overrides=overrides, integrator=integrator)
-    if not (isinstance(duration, (int, float)) and math.isfinite(duration) and duration > 0.0):
-        raise InputError(f"duration must be a positive number of seconds, got {duration!r}")
+    steps = budget.steps_of(duration, plant.dt)
     drive = _inputs(plant, inputs or {})
-    steps = max(1, round(duration / plant.dt))
     every = _sample_every(plant.dt, sample_dt)
     period = _controller_period(controller)
     target = _stream_target(stream, controller)
@@ -106,21 +108,24 @@ def simulate(spec_or_plant: SpecLike | Plant, *, inputs: Mapping[str | int, Any]
     _check_budget(plant, duration, every, signals, rows, target)  # before a given plant changes
     if initial:
         _set_initial(plant, initial)
-    with _recording(target, signals, rows) as sink:
-        loop = _Loop(plant, steps, every, drive, controller, period, sink)
+    with claimed(controller, plant.state()) as own, _recording(target, signals, rows) as sink:
+        loop = _Loop(plant, steps, every, drive, own, period, sink)
         _go(loop, plant, steps, progress)
-        meta = _meta(plant, inputs or {}, controller, period, overrides, initial, steps, every,
-                     label)
+        meta = _meta(plant, inputs or {}, own, period, overrides, initial, steps, every, label)
         if isinstance(sink, RunWriter):
             sink.finish(store.header_body(plant.spec, meta,
                                           {k: UNITS[k] for k in signals if k in UNITS}))
+            run = None
+        else:
+            assert sink.complete()
+            run = Run(t=sink.t, signals=sink.signals, spec=plant.spec, meta=meta)
+            # a controller that logs its own signals adds them (annotate(run) -> Run)
+            annotate = getattr(own, "annotate", None)
+            run = annotate(run) if callable(annotate) else run
     if target is not None:
         return store.load(target, Run, mmap=True, verify=False)
-    assert isinstance(sink, recorder.Arrays) and sink.complete()
-    run = Run(t=sink.t, signals=sink.signals, spec=plant.spec, meta=meta)
-    # a controller that logs its own signals adds them (any controller with annotate(run) -> Run)
-    annotate = getattr(controller, "annotate", None)
-    return annotate(run) if callable(annotate) else run
+    assert run is not None
+    return run
 
 
 def _go(loop: _Loop, plant: Plant, steps: int, progress: bool | None) -> None:
@@ -237,9 +242,10 @@ def _inputs(plant: Plant, inputs: Mapping[str | int, Any]) -> list[tuple[int, Si
 def _sample_every(dt: float, sample_dt: float | None) -> int:
     if sample_dt is None:
         return max(1, round(1.0 / (MAX_SAMPLE_RATE * dt)))
-    if not (math.isfinite(sample_dt) and sample_dt > 0.0):
+    if isinstance(sample_dt, bool) or not (isinstance(sample_dt, (int, float)) and
+                                           math.isfinite(sample_dt) and sample_dt > 0.0):
         raise InputError(f"sample_dt must be a positive number of seconds, got {sample_dt!r}")
-    return max(1, round(sample_dt / dt))
+    return max(1, round(min(sample_dt / dt, budget.MAX_STEPS)))
 
 
 def _controller_period(controller: Controller | None) -> float | None:

@@ -520,7 +520,8 @@ ML_FMI2_EXPORT fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicat
     return fmi2Error;
   }
   double h = communicationStepSize, ratio = h / ML_FMU_DT;
-  long steps = lround(ratio);
+  /* lround of a NaN or of a value beyond a long is undefined: range first */
+  long steps = isfinite(ratio) && ratio >= 0.5 && ratio < 4e18 ? lround(ratio) : 0;
   if (!(steps >= 1 && fabs(ratio - (double)steps) <= 1e-6 * ratio)) {
     say(in, fmi2Error, "maniplab FMU: the communication step %.9g s is not a whole number of "
         "the FMU's steps of %.9g s (build it with --step to match)", h, (double)ML_FMU_DT);
