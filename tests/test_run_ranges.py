@@ -17,6 +17,7 @@ import sys
 
 import numpy as np
 import pytest
+from commandline import run_cli
 
 import maniplab as ml
 from maniplab.sim import budget, native
@@ -111,3 +112,16 @@ def test_the_run_structure_mirror_matches_c() -> None:
     """The status numbers Python reads are plant.h's (BAD_RUN is the newest)."""
     assert (native.OK, native.BAD_COMMAND, native.BAD_RUN) == (0, 4, 7)
     assert ctypes.sizeof(native.RunStruct) > 0
+
+
+@pytest.mark.parametrize("argv", [
+    ["control", "planar2", "--target", "1.2,0.5,0", "--duration", "1e308"],
+    ["sweep", "planar2", "--vary", "end_effector.mass=1,2", "--duration", "1e300"],
+    ["sweep", "planar2", "--vary", "end_effector.mass=1,2", "--duration", "nan"],
+])
+def test_control_and_sweep_refuse_a_duration_out_of_range_before_any_work(
+        capsys, tmp_path, argv: list[str]) -> None:
+    """Before: control ended in an OverflowError traceback; sweep failed every variant (exit 3)."""
+    code, _, err = run_cli(capsys, *argv, "-o", str(tmp_path / "out"))
+    assert code == 2 and len(err.strip().splitlines()) == 1 and "duration" in err
+    assert not (tmp_path / "out").exists()

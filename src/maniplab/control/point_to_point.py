@@ -70,6 +70,11 @@ class MovePlan:
                 f"actuator's command range (--fit refuse to refuse such moves instead)")
 
 
+MAX_DURATION = 1e9
+"""The longest move (and latest start) planned, s: beyond it the path's derivatives underflow
+and the run could not be simulated anyway."""
+
+
 def plan_move(spec: ManipulatorSpec, target: Sequence[float], *, start: Sequence[float] | None,
               duration: float, t0: float = 0.5, model: AnalyticModel | None = None,
               tol: float = 1e-4, fit_mode: str = "stretch") -> MovePlan:
@@ -98,8 +103,11 @@ def plan_move(spec: ManipulatorSpec, target: Sequence[float], *, start: Sequence
             or a load no actuator holds.
     """
     model = model or AnalyticModel(spec)
-    if not duration > 0.0:
-        raise ControlError(f"duration must be > 0 s, got {duration!r}")
+    if not 0.0 < duration <= MAX_DURATION:
+        raise ControlError(f"duration must be > 0 s and at most {MAX_DURATION:g} s, "
+                           f"got {duration!r}")
+    if not abs(t0) <= MAX_DURATION:
+        raise ControlError(f"t0 must be a finite time within ±{MAX_DURATION:g} s, got {t0!r}")
     if fit_mode not in FITS:
         raise ControlError(f"fit {fit_mode!r}: expected 'stretch' or 'refuse'")
     lower, upper = bounds_of(model)

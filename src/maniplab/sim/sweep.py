@@ -29,7 +29,10 @@ from typing import Any
 from maniplab.atomic import check_target
 from maniplab.builtin import resolve_spec
 from maniplab.errors import ManiplabError
+from maniplab.mjcf_gen.builder import arm_step_limit
+from maniplab.mjcf_gen.timestep import default_step
 from maniplab.progress import Progress
+from maniplab.sim import budget
 from maniplab.sim.params import format_parameters
 from maniplab.sim.run import Run
 from maniplab.sim.runset import Failure, RunSet
@@ -96,6 +99,8 @@ def sweep(spec: ManipulatorSpec | str | os.PathLike[str], grid: Variants, *,
     """
     base = resolve_spec(spec)
     todo = variants(grid)
+    # a duration no run can take is bad input, refused before the first variant (not N failures)
+    budget.steps_of(duration, simulate_args.get("dt") or default_step(arm_step_limit(base)))
     folder = Path(out)
     created = not folder.exists()
     folder.mkdir(parents=True, exist_ok=True)
