@@ -50,7 +50,31 @@ def test_a_move_too_fast_saturates_its_valve() -> None:
     run = ml.simulate(spec, controller=ml.CascadeController(spec, fast, task="position"),
                       duration=1.5, initial={"q": plan.q_start, "dP": "gravity"})
     assert ("saturation", "slew") in checks(run)
-    assert run.health.verdict == "warnings"
+    # the valve cannot follow, so the arm misses its reference: a failure, not a warning
+    assert ("tracking", None) in checks(run) and run.health.verdict == "failed"
+
+
+def test_a_run_that_ends_a_metre_off_its_target_is_never_ok() -> None:
+    """Issue 41: the PID baseline on the loader crane ended 998 mm off and its health said ok."""
+    spec = ml.resolve_spec(ARMS / "loader_crane.yaml")
+    target = ml.AnalyticModel(spec).fk(np.array([0.4, -0.4, 1.0, 1.2]))[:3, 3]
+    result = run_move(spec, target, start=[0.0, -0.6, 1.2, 0.5], duration=6.0, mode="pid")
+    assert result.metrics.final_error_mm > 100.0  # measured from the move, independently
+    assert result.health.verdict == "failed"
+    (finding,) = [f for f in result.health.findings if f.check == "tracking"]
+    assert f"final position error {result.metrics.final_error_mm:.3g} mm > 2 mm" in finding.cause
+
+
+def test_the_tolerances_of_a_move_set_the_tracking_check() -> None:
+    spec = ml.builtin_spec("crane3")
+    loose = run_move(spec, [5.46, 0.6, 1.4], start=[0.0, 0.0, 0.5], duration=3.0, settle=0.2,
+                     mode="pid", tolerances=(1e3, 1e3))
+    tight = run_move(spec, [5.46, 0.6, 1.4], start=[0.0, 0.0, 0.5], duration=3.0, settle=0.2,
+                     mode="pid", tolerances=(1e-3, 1e-3))
+    assert "tracking" not in {f.check for f in loose.health.findings}
+    assert "tracking" in {f.check for f in tight.health.findings}
+    assert tight.run.meta["reference"]["final_mm"] == 1e-3
+    assert tight.run.units()["p_ref"] == "m"
 
 
 def test_open_loop_saturation_is_the_users_own_input() -> None:

@@ -45,6 +45,10 @@ def add(sub: argparse._SubParsersAction) -> None:
                               "write --start=-0.2,... when the first value is negative")
     control.add_argument("--mode", choices=("cascade", "pid"), default="cascade",
                          help="cascade (feedback linearisation, default) or pid (PID only)")
+    control.add_argument("--controller", metavar="MODULE:NAME",
+                         help="your own controller instead of --mode: a factory NAME(spec, move) "
+                              "-> controller in an importable MODULE or in a FILE.py you name "
+                              "(see 'Validate your own controller' in the docs)")
     control.add_argument("--settle", type=float, default=1.0, metavar="S",
                          help="time simulated after the move, s (default: 1)")
     control.add_argument("--sample-dt", type=positive_seconds, metavar="S", help=SAMPLE_DT_HELP)
@@ -63,6 +67,7 @@ def _cmd_control(args: argparse.Namespace) -> int:
 
     import maniplab as ml
     from maniplab.atomic import write_text
+    from maniplab.control.loading import load_factory
     from maniplab.control.move import run_move
     from maniplab.control.point_to_point import ControlError, parse_numbers
     from maniplab.viz.plots import save_figure
@@ -74,8 +79,10 @@ def _cmd_control(args: argparse.Namespace) -> int:
     start = parse_numbers(args.start, "--start", (spec.n,)) if args.start else None
     if not args.settle >= 0.0:
         raise ControlError(f"--settle must be >= 0 s, got {args.settle!r}")
+    factory = load_factory(args.controller) if args.controller else None
     result = run_move(spec, target, start=start, duration=args.duration, mode=args.mode,
-                      fit_mode=args.fit, settle=args.settle, sample_dt=args.sample_dt)
+                      fit_mode=args.fit, settle=args.settle, sample_dt=args.sample_dt,
+                      controller=factory, tolerances=(final, rms))
     note = result.plan.note()
     if note:
         print(f"maniplab control: {note}", file=sys.stderr)

@@ -37,6 +37,7 @@ import numpy as np
 from maniplab.actuators import ActuatorPlugin, ForceDrive
 from maniplab.clib import Functions
 from maniplab.control.errors import ControlError
+from maniplab.control.interface import TOLERANCES, Controller, with_reference
 from maniplab.control.inverse_dynamics import InverseDynamics
 from maniplab.control.kinematics import Kinematics, matrix_to_rpy
 from maniplab.control.native import (
@@ -120,6 +121,8 @@ class CascadeController:
             gains = dataclasses.replace(gains or spec.control or ControlSpec(), **settings)
         gains = resolve(spec, gains)
         self.spec, self.trajectory, self.gains, self.mode = spec, trajectory, gains, mode
+        self.tolerances = TOLERANCES
+        """(final, RMS) position error the run's health verdict allows, mm."""
         self.n = spec.n
         self.model = model or AnalyticModel(spec)
         _require_compiled(self.model)
@@ -176,13 +179,24 @@ class CascadeController:
     def __deepcopy__(self, memo: dict[int, Any]) -> CascadeController:
         """A controller of the same settings with its own compiled state and log, reset; the
         analytic model (read-only) and the trajectory (frozen) are shared."""
-        return CascadeController(self.spec, self.trajectory, gains=self.gains, mode=self.mode,
-                                 model=self.model)
+        other = CascadeController(self.spec, self.trajectory, gains=self.gains, mode=self.mode,
+                                  model=self.model)
+        other.tolerances = self.tolerances
+        return other
 
     def __reduce__(self) -> tuple[Any, ...]:
         """Pickled as its settings: unpickled (in a worker process) it rebuilds its compiled
         state, and its analytic model from the model cache, reset."""
-        return (_rebuild, (self.spec, self.trajectory, self.gains, self.mode))
+        return (_rebuild, (self.spec, self.trajectory, self.gains, self.mode, self.tolerances))
+
+    @property
+    def reference(self) -> Trajectory:
+        """The Cartesian reference tracked (the controller interface's name of the trajectory)."""
+        return self.trajectory
+
+    def output(self, t: float, state: Any) -> np.ndarray:
+        """The command at sample time t (the controller interface; as calling the controller)."""
+        return self(t, state)
 
     # --- the control law ---------------------------------------------------------------------
     def __call__(self, t: float, state: Any) -> np.ndarray:
@@ -337,21 +351,30 @@ class CascadeController:
 
         Signals ``x_d``, ``x``, ``e_x``, ``a_x``, ``qdd_d``, ``tau_d``, ``dP_d``, ``phi`` (see
         ``LOG_SIGNALS``; the command is the run's own ``ctrl``) are resampled onto ``run.t``
-        (zero-order hold) and ``meta["control"]`` records :meth:`settings`.
+        (zero-order hold), ``p_ref`` is the trajectory's position at every sample, and
+        ``meta["control"]`` records :meth:`settings`, ``meta["reference"]`` the move's window and
+        :attr:`tolerances` (which the run's health verdict checks).
         """
         extra = {k.removeprefix("ctrl."): v for k, v in self.signals_at(run.t).items()
                  if k != "ctrl.cmd"}
-        clash = sorted(set(extra) & set(run.signals))
-        if clash:
-            raise ControlError(f"the run already has signals {clash}")
-        meta = {**dict(run.meta), "control": self.settings()}
-        return type(run)(t=run.t, signals={**run.signals, **extra}, spec=run.spec, meta=meta)
+        units = {k: unit for k, (_, unit) in self.log_signals.items() if k in extra}
+        try:
+            out = with_reference(run, self.trajectory, self.tolerances, extra, units)
+        except ValueError as exc:
+            raise ControlError(str(exc)) from None
+        return type(out)(t=out.t, signals=out.signals, spec=out.spec,
+                         meta={**dict(out.meta), "control": self.settings()})
 
 
-def _rebuild(spec: ManipulatorSpec, trajectory: Trajectory, gains: ControlSpec,
-             mode: str) -> CascadeController:
+Controller.register(CascadeController)
+
+
+def _rebuild(spec: ManipulatorSpec, trajectory: Trajectory, gains: ControlSpec, mode: str,
+             tolerances: tuple[float, float]) -> CascadeController:
     """A pickled :class:`CascadeController` back (``CascadeController.__reduce__``)."""
-    return CascadeController(spec, trajectory, gains=gains, mode=mode)
+    controller = CascadeController(spec, trajectory, gains=gains, mode=mode)
+    controller.tolerances = tolerances
+    return controller
 
 
 def _require_compiled(model: AnalyticModel) -> None:

@@ -12,6 +12,10 @@ file. The checks:
 - **pinned**: a joint held on a limit for more than PINNED of the run while the run commanded it;
 - **still**: a joint commanded with more than STILL_COMMAND of its range for STILL_TIME s that
   did not move at all (a frozen actuator, or a load it cannot lift);
+- **tracking**: in a run with a reference (its position ``p_ref`` and ``meta["reference"]``:
+  the move's window and tolerances, written by a controller that declares a reference): the
+  end-effector's final error, and its RMS error over the move, within the tolerances (mm): a
+  run that ends far from its target is never "ok";
 - **diverging**: in a closed-loop run (one with the controller's reference ``x_d`` and task
   error ``e_x``), once the reference has come to rest: the error over the second half of that
   rest more than DIVERGING times the first half's, and above 1 mm: the loop is unstable.
@@ -116,7 +120,7 @@ def assess(run: Run) -> Health:
     hold = np.append(np.diff(t), 0.0)  # each sample's command holds until the next
     span = float(t[-1] - t[0])
     findings = [*_saturation(run, hold, span), *_bounds(run), *_pinned(run, hold, span),
-                *_still(run, hold), *_diverging(run)]
+                *_still(run, hold), *_diverging(run), *_tracking(run)]
     findings.sort(key=lambda f: f.severity is not Severity.FAILURE)
     return Health(tuple(findings))
 
@@ -232,3 +236,25 @@ def _diverging(run: Run) -> list[Finding]:
             "the loop is unstable: lower the outer gains (control.position) or the pressure "
             "bandwidth (control.pressure.bandwidth), or run 'maniplab tune'")]
     return []
+
+
+def _tracking(run: Run) -> list[Finding]:
+    reference = (run.meta or {}).get("reference")
+    if not reference or "p_ref" not in run or "ee_pos" not in run:
+        return []
+    t = np.asarray(run.t)
+    error = np.linalg.norm(np.asarray(run["ee_pos"]) - np.asarray(run["p_ref"]), axis=1)
+    inside = (t >= reference["t0"] - 1e-9) & (t <= reference["t1"] + 1e-9)
+    rms = 1e3 * float(np.sqrt(np.mean(error[inside] ** 2))) if inside.any() else 0.0
+    final = 1e3 * float(error[-1])
+    misses = []
+    if not final <= reference["final_mm"]:
+        misses.append(f"final position error {final:.3g} mm > {reference['final_mm']:g} mm")
+    if not rms <= reference["rms_mm"]:
+        misses.append(f"RMS error over the move {rms:.3g} mm > {reference['rms_mm']:g} mm")
+    if not misses:
+        return []
+    return [Finding(
+        Severity.FAILURE, "tracking", None, "; ".join(misses),
+        "the controller does not follow its reference: check its gains and model of the arm "
+        "(payload, friction), or give the move more time")]

@@ -97,8 +97,10 @@ class Run:
         return assess(self)
 
     def units(self) -> dict[str, str]:
-        """The units of the run's standard signals (see ``UNITS``), name -> unit."""
-        return {k: UNITS[k] for k in self.signals if k in UNITS}
+        """The units of the run's signals, name -> unit: the standard ones (see ``UNITS``) and
+        those a controller declared (``meta["units"]``)."""
+        declared = {**UNITS, **(self.meta.get("units") or {})}
+        return {k: str(declared[k]) for k in self.signals if k in declared}
 
     def save(self, path: str | os.PathLike[str]) -> None:
         """Write the run to ``path`` (.npz) atomically; :meth:`load` reads it back bit for bit."""

@@ -251,8 +251,9 @@ def _sample_every(dt: float, sample_dt: float | None) -> int:
 def _controller_period(controller: Controller | None) -> float | None:
     if controller is None:
         return None
-    if not callable(controller):
-        raise InputError(f"controller must be callable (t, state) -> commands, got {controller!r}")
+    if not callable(controller) and not callable(getattr(controller, "output", None)):
+        raise InputError(f"controller must be callable (t, state) -> commands or have an "
+                         f"output(t, state) method, got {controller!r}")
     period = getattr(controller, "dt", None)
     if period is None:
         return None
@@ -262,7 +263,7 @@ def _controller_period(controller: Controller | None) -> float | None:
 
 
 def _call(controller: Controller, t: float, plant: Plant) -> list[float]:
-    commands = controller(t, plant.state())
+    commands = (controller if callable(controller) else controller.output)(t, plant.state())
     try:
         if isinstance(commands, Mapping):
             return plant.command_vector(commands).tolist()
