@@ -38,9 +38,18 @@ if _running_as_main() and sys.path[:1] in ([""], [os.getcwd()]):
 
 from importlib.metadata import PackageNotFoundError, version
 
+from maniplab import control
 from maniplab.actuators.registry import load_plugins
 from maniplab.builtin import builtin_spec, builtin_specs, resolve_spec
-from maniplab.control import CascadeController, MinJerkMove, Path, Pose, segment_placement
+from maniplab.control import (
+    ActuatorMaps,
+    CascadeController,
+    Controller,
+    MinJerkMove,
+    Path,
+    Pose,
+    segment_placement,
+)
 from maniplab.control.linearize import linearize
 from maniplab.errors import ManiplabError, ModelError, SpecError
 from maniplab.identification import identify
@@ -85,11 +94,13 @@ except PackageNotFoundError:  # running from a source tree without installation
     __version__ = "0+unknown"
 
 __all__ = [
+    "ActuatorMaps",
     "AnalyticModel",
     "Axis",
     "Body",
     "CascadeController",
     "ControlSpec",
+    "Controller",
     "EndEffector",
     "Friction",
     "FrictionModel",
@@ -118,6 +129,7 @@ __all__ = [
     "build_model",
     "builtin_spec",
     "builtin_specs",
+    "control",
     "crossvalidate",
     "identify",
     "linearize",

@@ -7,6 +7,9 @@ Rendering samples the stored states of a :class:`~maniplab.sim.run.Run` at the v
     frames = render(run, width=1280, height=720, fps=30)          # (F, 720, 1280, 3) uint8
     write_video(frames, "out/a.mp4")
     write_video(iter_grid([run_a, run_b]), "out/compare.mp4")     # streamed: one frame in memory
+
+:func:`tracking_figure` plots closed-loop runs against their reference (``maniplab control``'s
+figure).
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ from maniplab.viz.compare import (
 )
 from maniplab.viz.gl import RenderError
 from maniplab.viz.render import iter_frames, render
+from maniplab.viz.tracking import tracking_figure
 from maniplab.viz.video import write_video
 
 __all__ = [
@@ -38,5 +42,6 @@ __all__ = [
     "render",
     "render_grid",
     "render_overlay",
+    "tracking_figure",
     "write_video",
 ]
