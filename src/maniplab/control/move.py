@@ -67,7 +67,8 @@ def run_move(spec: ManipulatorSpec, target: Sequence[float], *, start: Sequence[
              duration: float, mode: str = "cascade", fit_mode: str = "stretch",
              settle: float = 1.0, model: AnalyticModel | None = None,
              sample_dt: float | None = None, controller: ControllerFactory | None = None,
-             tolerances: tuple[float, float] = TOLERANCES) -> MoveResult:
+             tolerances: tuple[float, float] = TOLERANCES,
+             plant: ManipulatorSpec | None = None) -> MoveResult:
     """Plan a move to ``target`` (:func:`~maniplab.control.point_to_point.plan_move`), run it
     from rest with the actuators holding the arm against gravity, and measure it.
 
@@ -84,6 +85,8 @@ def run_move(spec: ManipulatorSpec, target: Sequence[float], *, start: Sequence[
             returning the controller (see :mod:`~maniplab.control.interface`).
         tolerances: (final, RMS) position error allowed, mm: the run's health verdict checks
             them when the controller tracks the move (declares it as its ``reference``).
+        plant: the arm simulated, when it differs from the one the move is planned and the
+            controller built for (``spec``: the designer's estimate), e.g. a heavier payload.
     """
     model = model or AnalyticModel(spec)
     plan = plan_move(spec, target, start=start, duration=duration, model=model, fit_mode=fit_mode)
@@ -95,7 +98,7 @@ def run_move(spec: ManipulatorSpec, target: Sequence[float], *, start: Sequence[
         label = f"{_name(controller)}, {plan.task} task"
     if hasattr(made, "tolerances"):
         made.tolerances = tuple(float(x) for x in tolerances)
-    run = simulate(spec, controller=made, duration=plan.move.t0 + plan.move.duration + settle,
+    run = simulate(plant or spec, controller=made, duration=plan.move.t0 + plan.move.duration + settle,
                    initial={"q": plan.q_start, "dP": "gravity"}, label=label,
                    sample_dt=sample_dt)
     return MoveResult(plan, run, tracking_metrics(run, plan.move, label=label, model=model))
