@@ -15,8 +15,10 @@ def add(sub: argparse._SubParsersAction) -> None:
         description="Start a local web server with the design environment's page (Configure, "
                     "Simulate, Runs, Watch) and open it. The page reads and writes only the "
                     "workspace folder. Stop with Ctrl-C: the runs already stored stay.",
-        epilog="The server listens on 127.0.0.1 only unless --host says otherwise; anyone who "
-               "can reach the address can then run simulations and write into the workspace.")
+        epilog="The server listens on 127.0.0.1 only unless --host says otherwise. The page opens "
+               "only at the address printed, which carries a secret token: whoever has that "
+               "address and can reach the server can run simulations and write into the "
+               "workspace.")
     gui.add_argument("spec", nargs="?", default="erector", metavar="SPEC",
                      help="spec file or built-in name shown first (default: erector)")
     gui.add_argument("--port", type=int, default=8080, metavar="N",
@@ -40,7 +42,8 @@ def _cmd_gui(args: argparse.Namespace) -> int:
           f"ready in {time.perf_counter() - began:.1f} s; Ctrl-C stops)", flush=True)
     if exposed(args.host):
         print(f"maniplab gui: WARNING: listening on {args.host}, not only on this machine: anyone "
-              "who reaches this address can run simulations and write into the workspace",
+              "who reaches this address and has its token can run simulations and write into "
+              "the workspace (the traffic is not encrypted)",
               file=sys.stderr, flush=True)
     if not args.no_browser:
         import webbrowser

@@ -9,6 +9,10 @@ page over a websocket).
 Every action calls the public API the command line calls (``simulate``, ``run_move``,
 ``to_mjcf``, ``export_model``, ``viz.plots.compare``); the GUI adds only the page. Its widgets
 live on the server and are shared by every tab of the browser, so two tabs show the same state.
+
+Only the page's own address with the secret token opens it (:mod:`maniplab.gui.access`), and
+what the page sends is checked and paced on the server (:mod:`maniplab.gui.guard`). Every text
+shown on the page is escaped (:mod:`maniplab.gui.text`).
 """
 
 from __future__ import annotations
@@ -18,7 +22,10 @@ import io
 import threading
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
+from maniplab.gui.guard import guard
+from maniplab.gui.text import plain
 from maniplab.gui.workspace import Workspace
 from maniplab.spec import ManipulatorSpec
 
@@ -33,12 +40,14 @@ class Gui:
         workspace: the folder the page reads and writes (:class:`Workspace`).
         host: interface to listen on (default localhost only).
         port: TCP port (the next free one above it when taken).
+        token: the secret the page's address carries (default: a fresh random one).
     """
 
     def __init__(self, spec: ManipulatorSpec, workspace: str | Path, *, host: str = "127.0.0.1",
-                 port: int = 8080) -> None:
+                 port: int = 8080, token: str | None = None) -> None:
         import viser
 
+        from maniplab.gui.access import Access, hooked, new_token
         from maniplab.gui.configure import ConfigureTab
         from maniplab.gui.jobs import Jobs
         from maniplab.gui.runs import RunsTab
@@ -50,8 +59,11 @@ class Gui:
         self.lock = threading.RLock()  # callbacks come from viser's thread pool
         self._spec_listeners: list[Callable[[], None]] = []
         self._run_listeners: list[Callable[[], None]] = []
-        with contextlib.redirect_stdout(io.StringIO()):  # viser's banner: we print our own
+        self.token = token or new_token()
+        self.said = "idle"
+        with contextlib.redirect_stdout(io.StringIO()), hooked(Access(self.token, [host])):
             self.server = viser.ViserServer(host=host, port=port, label="maniplab", verbose=False)
+        self.guard = guard(self.server, self._bug)
         gui = self.server.gui
         gui.configure_theme(control_width="large", show_logo=False, show_share_button=False)
         self.jobs = Jobs(self._report)
@@ -72,11 +84,17 @@ class Gui:
             self.watch = WatchTab(self)
 
     @property
-    def url(self) -> str:
-        """The page's address."""
+    def address(self) -> str:
+        """The page's address without the token."""
         host = self.server.get_host()
         shown = "127.0.0.1" if host in ("0.0.0.0", "::") else host
+        shown = f"[{shown}]" if ":" in shown else shown
         return f"http://{shown}:{self.server.get_port()}"
+
+    @property
+    def url(self) -> str:
+        """The page's address with its token: the one to open."""
+        return f"{self.address}/?token={self.token}"
 
     # --- shared state ---------------------------------------------------------------------------
 
@@ -102,20 +120,27 @@ class Gui:
                 listener()
 
     def say(self, text: str) -> None:
-        """Show one status line."""
-        self.status.content = text
+        """Show one status line (as text: escaped, on one line)."""
+        self.said = " ".join(text.split())
+        self.status.content = plain(text)
 
     def _report(self, text: str, fraction: float | None) -> None:
-        self.status.content = text
+        self.say(text)
         self.progress.visible = fraction is not None
         if fraction is not None:
             self.progress.value = round(100.0 * fraction, 1)
 
-    def download(self, name: str, suffix: str, content: str | bytes) -> Path:
-        """Keep ``content`` in the workspace's exports and send it to the browsers as a download;
-        returns the file."""
+    def _bug(self, exc: BaseException) -> None:
+        """Show an error raised in a callback (its traceback is on stderr)."""
+        self.say(f"⚠ a maniplab bug (traceback on the server's stderr): {type(exc).__name__}: "
+                 f"{exc}")
+
+    def download(self, name: str, suffix: str, content: str | bytes, client: Any) -> Path:
+        """Keep ``content`` in the workspace's exports and send it as a download to ``client``
+        (the page that asked: a viser ClientHandle; None sends nothing); returns the file."""
         path = self.workspace.export(name, suffix, content)
-        self.server.send_file_download(path.name, path.read_bytes())
+        if client is not None and client.client_id in self.server.get_clients():
+            client.send_file_download(path.name, path.read_bytes())
         return path
 
     def close(self) -> None:
@@ -126,9 +151,9 @@ class Gui:
 
 
 def serve(spec: ManipulatorSpec, workspace: str | Path, *, host: str = "127.0.0.1",
-          port: int = 8080) -> Gui:
+          port: int = 8080, token: str | None = None) -> Gui:
     """Start the GUI server (it runs in background threads until :meth:`Gui.close`)."""
-    return Gui(spec, workspace, host=host, port=port)
+    return Gui(spec, workspace, host=host, port=port, token=token)
 
 
 def exposed(host: str) -> bool:

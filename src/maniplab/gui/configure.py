@@ -131,9 +131,10 @@ class ConfigureTab:
             self.file_name = gui.add_text("Spec name", _safe(app.spec.name),
                                           hint="saved as specs/NAME.yaml in the workspace")
             gui.add_button("Save spec").on_click(lambda _: self.save())
-            gui.add_button("Download MJCF").on_click(lambda _: self.download_mjcf())
+            gui.add_button("Download MJCF").on_click(lambda event: self.download_mjcf(event.client))
             self.model_format = gui.add_dropdown("Analytic model", _MODELS)
-            gui.add_button("Download analytic model").on_click(lambda _: self.download_model())
+            gui.add_button("Download analytic model").on_click(
+                lambda event: self.download_model(event.client))
         self.arm3d: Arm3D | None = None
         app.on_spec(self.refresh)
         self.refresh()
@@ -286,25 +287,27 @@ class ConfigureTab:
             return
         self.app.say(f"saved {path}")
 
-    def download_mjcf(self) -> None:
-        """Send the arm's MJCF to the browser."""
+    def download_mjcf(self, client: Any = None) -> None:
+        """Send the arm's MJCF to ``client`` (the page that asked)."""
         from maniplab.mjcf_gen import to_mjcf
 
         try:
-            path = self.app.download(_safe(self.app.spec.name), ".xml", to_mjcf(self.app.spec))
+            path = self.app.download(_safe(self.app.spec.name), ".xml", to_mjcf(self.app.spec),
+                                     client)
         except (ManiplabError, OSError) as exc:
             self.app.say(f"⚠ {exc}")
             return
         self.app.say(f"MJCF written to {path} and sent to the browser")
 
-    def download_model(self) -> None:
-        """Derive the analytic model in the chosen format (a job: it can take seconds) and send it."""
+    def download_model(self, client: Any = None) -> None:
+        """Derive the analytic model in the chosen format (a job: it can take seconds) and send it
+        to ``client`` (the page that asked)."""
         from maniplab.model.export import export_model
 
         spec, fmt = self.app.spec, self.model_format.value
 
         def done(text: str) -> str:
-            path = self.app.download(f"{_safe(spec.name)}_model", _SUFFIX[fmt], text)
+            path = self.app.download(f"{_safe(spec.name, 58)}_model", _SUFFIX[fmt], text, client)
             return f"analytic model written to {path} and sent to the browser"
 
         self.app.jobs.start(f"deriving the {fmt} model", lambda: export_model(spec, fmt, []),
@@ -370,9 +373,11 @@ def _fresh(name: str, taken: set[str]) -> str:
     return next(f"{name}_{k}" for k in range(2, len(taken) + 3) if f"{name}_{k}" not in taken)
 
 
-def _safe(name: str) -> str:
-    """``name`` as a workspace file name."""
-    cleaned = "".join(c if c.isalnum() or c in "-_" else "_" for c in name)[:64]
+def _safe(name: str, length: int = 64) -> str:
+    """``name`` as a workspace file name of at most ``length`` characters (ASCII letters and
+    digits, ``-`` and ``_``; every other character becomes ``_``)."""
+    cleaned = "".join(c if (c.isascii() and c.isalnum()) or c in "-_" else "_"
+                      for c in name)[:length]
     return cleaned or "arm"
 
 

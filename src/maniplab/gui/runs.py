@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from maniplab.errors import ManiplabError
-from maniplab.gui.text import warning
+from maniplab.gui.text import plain, warning
 from maniplab.sim import params
 from maniplab.sim.run import Run
 from maniplab.viz.compare import parameters
@@ -110,7 +110,7 @@ class RunsTab:
         except (ManiplabError, OSError) as exc:
             self.message.content = warning(exc)
             return
-        self.message.content = done
+        self.message.content = plain(done)
         self.app.runs_changed()
 
     def plot(self) -> None:
@@ -129,7 +129,7 @@ class RunsTab:
             return
         self.figure.image = _pixels(figure)
         self.figure.visible = True
-        self.message.content = f"{len(runs)} run(s): {', '.join(signals)}"
+        self.message.content = plain(f"{len(runs)} run(s): {', '.join(signals)}")
 
 
 def _pixels(figure: Any) -> np.ndarray:

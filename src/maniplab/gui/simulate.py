@@ -8,13 +8,12 @@ workspace with its parameters (the run file holds its spec, inputs and overrides
 
 from __future__ import annotations
 
-import html
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from maniplab.errors import ManiplabError
-from maniplab.gui.text import warning
+from maniplab.gui.text import plain, warning
 from maniplab.sim.grammar import parse_input
 
 if TYPE_CHECKING:
@@ -29,6 +28,10 @@ KINDS = {  # kind -> labels of its first and second number ("" unused)
     "ramp": ("slope, per s", "until, s"),
 }
 ALL = "all joints"
+BIG = 1e6
+"""Bound of the page's free numbers (amplitudes, times, payload kg, target m)."""
+MAX_DURATION = 3600.0
+"""Longest run or move the page asks for, s."""
 
 
 def term(kind: str, first: float, second: float, t0: float) -> str:
@@ -81,24 +84,27 @@ class SimulateTab:
             with gui.add_folder("Build a term", expand_by_default=False):
                 self.term_joint = gui.add_dropdown("Joint", ["-"])
                 self.kind = gui.add_dropdown("Signal", tuple(KINDS))
-                self.first = gui.add_number("amplitude", 0.5)
-                self.second = gui.add_number("second (unused)", 0.0, disabled=True)
+                self.first = gui.add_number("amplitude", 0.5, min=-BIG, max=BIG)
+                self.second = gui.add_number("second (unused)", 0.0, min=-BIG, max=BIG,
+                                             disabled=True)
                 self.kind.on_update(lambda _: self._label_numbers())
-                self.t0 = gui.add_number("from t0, s", 0.1, min=0.0)
+                self.t0 = gui.add_number("from t0, s", 0.1, min=0.0, max=BIG)
                 gui.add_button("Add term").on_click(lambda _: self.add_term())
                 gui.add_button("Clear joint").on_click(lambda _: self.clear_input())
         with gui.add_folder("Parameters"):
-            self.payload = gui.add_number("Payload mass, kg", 0.0, min=0.0)
+            self.payload = gui.add_number("Payload mass, kg", 0.0, min=0.0, max=BIG)
             self.target_joint = gui.add_dropdown("Leakage and friction of", [ALL])
             self.leakage = gui.add_text("Leakage, m³/(s·Pa)", "", hint="blank: the spec's")
             self.viscous = gui.add_text("Viscous friction", "", hint="N·s/m or N·m·s/rad; "
                                         "blank: the spec's")
-            self.duration = gui.add_number("Duration, s", 2.0, min=0.001)
-            self.dt = gui.add_number("Step, s", 1e-3, min=1e-6, step=1e-4)
+            self.duration = gui.add_number("Duration, s", 2.0, min=0.001, max=MAX_DURATION)
+            self.dt = gui.add_number("Step, s", 1e-3, min=1e-6, max=0.1, step=1e-4)
         gui.add_button("Run", color="green").on_click(lambda _: self.run_open_loop())
         with gui.add_folder("Closed loop"):
-            self.target = gui.add_vector3("Target x, y, z (m)", (0.0, 0.0, 0.0), step=0.01)
-            self.move_duration = gui.add_number("Move duration, s", 2.0, min=0.01)
+            self.target = gui.add_vector3("Target x, y, z (m)", (0.0, 0.0, 0.0), step=0.01,
+                                          min=(-BIG,) * 3, max=(BIG,) * 3)
+            self.move_duration = gui.add_number("Move duration, s", 2.0, min=0.01,
+                                                max=MAX_DURATION)
             self.mode = gui.add_dropdown("Controller", ("cascade", "pid"))
             gui.add_button("Run move", color="green").on_click(lambda _: self.run_move())
             self.verdict = gui.add_markdown("")
@@ -149,11 +155,12 @@ class SimulateTab:
                                            _number(self.leakage.value, "leakage"),
                                            _number(self.viscous.value, "viscous friction"))
             run_spec = spec.with_overrides(overrides) if overrides else spec
+            name = self._free_name(self.name.value)
         except ManiplabError as exc:
             self._fail(str(exc))
             return
         self._fail(None)
-        duration, dt, name = float(self.duration.value), float(self.dt.value), self.name.value
+        duration, dt = float(self.duration.value), float(self.dt.value)
 
         def work() -> Run:
             from maniplab.sim.simulate import simulate
@@ -162,6 +169,12 @@ class SimulateTab:
                             initial={"dP": "gravity"}, label=name, progress=False)
 
         self.app.jobs.start(f"simulating {spec.name}", work, lambda run: self._store(run, name))
+
+    def _free_name(self, name: str) -> str:
+        """``name`` checked before a run: it, or the ``-2``... it would be stored under, is a
+        valid name (raises WorkspaceError, so no finished run is thrown away for its name)."""
+        self.app.workspace.free_name(name)
+        return name
 
     def _store(self, run: Run, name: str) -> str:
         stored = self.app.workspace.save_run(run, name)
@@ -198,13 +211,18 @@ class SimulateTab:
         from maniplab.control.move import run_move
 
         spec, target = self.app.spec, [float(x) for x in self.target.value]
-        duration, mode, name = float(self.move_duration.value), self.mode.value, self.name.value
+        duration, mode = float(self.move_duration.value), self.mode.value
+        try:
+            name = self._free_name(f"{self.name.value}-{mode}")
+        except ManiplabError as exc:
+            self.verdict.content = warning(exc)
+            return
 
         def done(result: Any) -> str:
             missed = result.missed()
-            self.verdict.content = html.escape(f"health {result.health.summary()}; "
-                                               f"{missed or 'tolerances met'}")
-            return self._store(result.run, f"{name}-{mode}")
+            self.verdict.content = plain(f"health {result.health.summary()}; "
+                                         f"{missed or 'tolerances met'}")
+            return self._store(result.run, name)
 
         self.verdict.content = ""
         self.app.jobs.start(f"{mode} move of {spec.name}",

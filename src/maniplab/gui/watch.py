@@ -11,12 +11,12 @@ from __future__ import annotations
 import html
 import threading
 import time
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from maniplab.errors import ManiplabError
 from maniplab.gui.replay import Replay, replay_html, stage
 from maniplab.gui.runs import legend
-from maniplab.gui.text import warning
+from maniplab.gui.text import plain, warning
 from maniplab.viz import palette
 
 if TYPE_CHECKING:
@@ -41,7 +41,7 @@ class WatchTab:
         self.play_button = gui.add_button("Play")
         self.play_button.on_click(lambda _: self.toggle())
         self.speed = gui.add_dropdown("Speed", SPEEDS, initial_value="1")
-        gui.add_button("Export HTML replay").on_click(lambda _: self.export())
+        gui.add_button("Export HTML replay").on_click(lambda event: self.export(event.client))
         gui.add_button("Back to the arm").on_click(lambda _: self.hide())
         self.message = gui.add_markdown("")
         self.replay: Replay | None = None
@@ -69,8 +69,8 @@ class WatchTab:
         self.time.min, self.time.max = float(replay.times[0]), float(replay.times[-1])
         self.time.step = 1.0 / replay.fps
         self.time.value = float(replay.times[0])
-        self.message.content = (f"{len(runs)} run(s), {replay.frames} frames: blue joints stick, "
-                                "red ones are at a limit")
+        self.message.content = plain(f"{len(runs)} run(s), {replay.frames} frames: blue joints "
+                                     "stick, red ones are at a limit")
 
     def hide(self) -> None:
         """Take the replay away and show the arm being configured."""
@@ -121,8 +121,9 @@ class WatchTab:
                     break
                 self.time.value = round(t * FPS) / FPS
 
-    def export(self) -> None:
-        """Write the ticked runs' replay as an offline HTML page and send it to the browser."""
+    def export(self, client: Any = None) -> None:
+        """Write the ticked runs' replay as an offline HTML page and send it to ``client`` (the
+        page that asked)."""
         names = self.app.runs.selected()
         if not names:
             self.message.content = warning("tick the runs to export in the Runs tab")
@@ -132,7 +133,7 @@ class WatchTab:
             return replay_html([self.app.workspace.load_run(n) for n in names], FPS)
 
         def done(page: str) -> str:
-            path = self.app.download(f"replay-{'-'.join(names)}"[:64], ".html", page)
+            path = self.app.download(f"replay-{'-'.join(names)}"[:64], ".html", page, client)
             return f"replay written to {path} and sent to the browser"
 
         self.app.jobs.start("exporting the replay", work, done)

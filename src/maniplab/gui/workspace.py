@@ -83,12 +83,19 @@ class Workspace:
         return name
 
     def free_name(self, name: str) -> str:
-        """``name``, or the first of ``name-2``, ``name-3``... that no stored run has."""
+        """``name``, or the first of ``name-2``, ``name-3``... that no stored run has; raises
+        WorkspaceError when that name is not valid (too long with its suffix)."""
         self.path("runs", name, ".npz")  # checks the name
         taken = set(self.runs())
         if name not in taken:
             return name
-        return next(f"{name}-{k}" for k in range(2, len(taken) + 3) if f"{name}-{k}" not in taken)
+        free = next(f"{name}-{k}" for k in range(2, len(taken) + 3) if f"{name}-{k}" not in taken)
+        try:
+            self.path("runs", free, ".npz")
+        except WorkspaceError:
+            raise WorkspaceError(f"a run named '{name}' exists already, and '{free}' is too long: "
+                                 "choose a shorter name") from None
+        return free
 
     def rename_run(self, old: str, new: str) -> None:
         """Rename a stored run; refuses a name already taken."""
