@@ -136,7 +136,13 @@ def monte_carlo(spec: ManipulatorSpec | str, distributions: Mapping[str, Distrib
         spec: the nominal arm (the controller's model).
         distributions: dotted path -> distribution of the plant's value (see ``Distribution``),
             e.g. ``{"end_effector.mass": scipy.stats.norm(4000, 400)}``.
-        target, start, duration, settle, mode, controller, tolerances: as for ``run_move``.
+        target: as for ``run_move``.
+        start: as for ``run_move``.
+        duration: as for ``run_move``.
+        settle: as for ``run_move``.
+        mode: as for ``run_move``.
+        controller: as for ``run_move``.
+        tolerances: as for ``run_move``.
         samples: how many plants.
         seed: the random seed: the same seed draws the same plants.
         threads: samples run at once (the plant's loop runs outside Python's lock).

@@ -23,7 +23,10 @@ class LTIController(Controller):
     """x[k+1] = A x[k] + B e[k], u[k] = C x[k] + D e[k] with e = q_ref(t) - q on ``joints``.
 
     Args:
-        A, B, C, D: the discrete state-space matrices, (s, s), (s, m), (m, s), (m, m).
+        A: the discrete state matrix, (s, s).
+        B: the input matrix, (s, m).
+        C: the output matrix, (m, s).
+        D: the feedthrough matrix, (m, m).
         dt: the sample time, s.
         n: the arm's joints.
         joints: the m joints controlled, indices into the arm's joints.

@@ -74,7 +74,10 @@ def run_move(spec: ManipulatorSpec, target: Sequence[float], *, start: Sequence[
 
     Args:
         spec: the arm; its ``control:`` section, completed from the arm, sets the controller.
-        target, start, duration, fit_mode: as for ``plan_move``.
+        target: as for ``plan_move``.
+        start: as for ``plan_move``.
+        duration: as for ``plan_move``.
+        fit_mode: as for ``plan_move``.
         mode: "cascade" or "pid" (the PID-only baseline), when ``controller`` is None.
         settle: time simulated after the move, s.
         model: the arm's analytic model.

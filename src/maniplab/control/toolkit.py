@@ -61,7 +61,8 @@ class ActuatorMaps:
 
         Args:
             tau: joint forces, N·m or N, (n,) or (K, n).
-            q, qd: joint positions and speeds, same shape.
+            q: joint positions, rad or m, same shape.
+            qd: joint speeds, rad/s or m/s, same shape.
 
         Returns:
             Commands, the shape of ``tau``: ±inf where no command within the limit gives the
