@@ -5,6 +5,15 @@ headers and ``libmujoco``, into ``<cache>/plugins/<key>/``; the key hashes the s
 headers and library, and the compiler, so an upgrade of any of them builds afresh. The file is
 written under a temporary name and renamed into place, so concurrent first uses (test workers,
 sweep processes) each see a whole library.
+
+``MANIPLAB_NATIVE_SANITIZE=1`` builds it (and, while it is set, an FMU's C functions, which
+:mod:`maniplab.fmu.build` compiles with :data:`CFLAGS`) with AddressSanitizer and UBSan
+(:data:`SANITIZE_FLAGS`) into ``<cache>/plugins-sanitize/<key>/`` instead, so the sanitized build
+never replaces the normal one. The flags are read when this module is imported. Such a library
+loads only into a process that has the ASan runtime first, e.g. ``LD_PRELOAD=$(gcc
+-print-file-name=libasan.so) ASAN_OPTIONS=detect_leaks=0 python ...`` (CPython's own allocations
+look like leaks); ``make sanitize`` runs the native tests and the fuzzing of ``tests/sanitize/``
+that way (see the safety page's "Sanitizers").
 """
 
 from __future__ import annotations
@@ -33,7 +42,21 @@ def sources() -> list[Path]:
     return sorted([*_HERE.glob("*.c"), *_HERE.glob("*.h")])
 
 
-CFLAGS = ("-O2", "-fPIC", "-shared", "-ffp-contract=off", "-fno-math-errno", "-std=c99")
+SANITIZE_FLAGS = ("-g", "-fsanitize=address,undefined", "-fno-omit-frame-pointer",
+                  "-fno-sanitize-recover=undefined")
+"""The flags ``MANIPLAB_NATIVE_SANITIZE=1`` adds: AddressSanitizer and UBSan, which stop the
+process at the first error with a report."""
+
+
+def sanitizing() -> bool:
+    """Whether ``MANIPLAB_NATIVE_SANITIZE`` asks for the sanitized build (``1``, ``yes``,
+    ``true``, ``on``)."""
+    return os.environ.get("MANIPLAB_NATIVE_SANITIZE", "").strip().lower() in (
+        "1", "yes", "true", "on")
+
+
+CFLAGS = ("-O2", "-fPIC", "-shared", "-ffp-contract=off", "-fno-math-errno", "-std=c99",
+          *(SANITIZE_FLAGS if sanitizing() else ()))
 
 _HERE = Path(__file__).resolve().parent
 _LOCK = threading.Lock()
@@ -201,7 +224,8 @@ def library_path() -> Path:
             "maniplab's MuJoCo plugins need a C compiler and none was found "
             "(tried $MANIPLAB_CC, $CC, cc, gcc, clang): install one, e.g. apt-get install gcc")
     compiler = compilers[0]
-    folder = cache_root() / "plugins" / _key(mujoco_dir, lib, compiler)
+    kind = "plugins-sanitize" if SANITIZE_FLAGS[1] in CFLAGS else "plugins"
+    folder = cache_root() / kind / _key(mujoco_dir, lib, compiler)
     target = folder / "libmaniplab_plugins.so"
     if target.exists():
         return target
@@ -238,7 +262,11 @@ def load() -> None:
         try:
             _LOADED.append(ctypes.CDLL(str(path)))
         except OSError as exc:
-            raise NativeBuildError(f"maniplab's MuJoCo plugins: cannot load {path}: {exc}") from exc
+            hint = (" (the sanitized build, MANIPLAB_NATIVE_SANITIZE=1, needs the ASan runtime "
+                    "first: LD_PRELOAD=$(gcc -print-file-name=libasan.so))"
+                    if SANITIZE_FLAGS[1] in CFLAGS else "")
+            raise NativeBuildError(
+                f"maniplab's MuJoCo plugins: cannot load {path}: {exc}{hint}") from exc
 
 
 def library() -> ctypes.CDLL:
