@@ -11,8 +11,9 @@ pose's, with the joints that end on a limit.
 When the arm has more joints than the task has rows, many poses reach the target and the solver
 would end wherever its iterations drift. Following a path (``near=True``), the first solve
 therefore also asks for the smallest change from the start (a small weight on q − q0), and a
-second, unweighted solve from there removes the miss that weight left: the path moves the joints
-as little as it can, sample after sample, whatever the rounding of the kinematics.
+second solve from there, with a far smaller weight, removes the miss the first weight left: the
+path moves the joints as little as it can, sample after sample, whatever the rounding of the
+kinematics, and a joint the task does not see at all does not move.
 """
 
 from __future__ import annotations
@@ -32,6 +33,12 @@ RESTARTS = 24
 
 NEAR_WEIGHT = 1e-3
 """Weight of q − q0 (m/rad) in the first solve of ``near``: small beside a miss of the task."""
+
+NEAR_HOLD = 1e-9
+"""Weight of q − q0 in the second solve of ``near``: it removes the first solve's miss (to about
+this weight times the step) while a joint the task does not move (a rotator whose axis passes
+through the tip, whose Jacobian column is round-off) keeps its position instead of swinging on
+that round-off."""
 
 SEED = 20051117
 """Fixed: the same target gives the same answer every time."""
@@ -88,19 +95,22 @@ def solve(model: AnalyticModel, pose: Any, q0: ArrayLike, *, task: str = "pose",
     def jacobian(q: np.ndarray) -> np.ndarray:
         return -model.jacobian(q)[rows]  # exact for the position, to first order the rotation
 
+    def anchored(start: np.ndarray, weight: float) -> np.ndarray:
+        """The least squares of the task error and ``weight`` (q - start)."""
+        eye = weight * np.eye(len(start))
+
+        def weighted(q: np.ndarray) -> np.ndarray:
+            return np.concatenate([residual(q), weight * (q - start)])
+
+        def weighted_jacobian(q: np.ndarray) -> np.ndarray:
+            return np.vstack([jacobian(q), eye])
+
+        return least_squares(weighted, start, jac=weighted_jacobian, bounds=(lower, upper),
+                             method="trf", xtol=1e-15, ftol=1e-15, gtol=1e-15, max_nfev=100).x
+
     def solve_from(start: np.ndarray) -> np.ndarray:
-        if near:
-            anchor, eye = start, NEAR_WEIGHT * np.eye(len(start))
-
-            def weighted(q: np.ndarray) -> np.ndarray:
-                return np.concatenate([residual(q), NEAR_WEIGHT * (q - anchor)])
-
-            def weighted_jacobian(q: np.ndarray) -> np.ndarray:
-                return np.vstack([jacobian(q), eye])
-
-            start = least_squares(weighted, start, jac=weighted_jacobian, bounds=(lower, upper),
-                                  method="trf", xtol=1e-15, ftol=1e-15, gtol=1e-15,
-                                  max_nfev=100).x
+        if near:  # a joint the task does not see (its column ~1e-17) stays where it was
+            return anchored(anchored(start, NEAR_WEIGHT), NEAR_HOLD)
         return least_squares(residual, start, jac=jacobian, bounds=(lower, upper), method="trf",
                              xtol=1e-15, ftol=1e-15, gtol=1e-15, max_nfev=100).x
 
