@@ -4,10 +4,12 @@ axis through the tip: redundant for the tip's position), one shared pump."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
 import pytest
+from commandline import run_cli
 
 import maniplab as ml
 from maniplab.control.feasibility import JointPath
@@ -35,3 +37,29 @@ def test_a_joint_the_tip_does_not_need_takes_no_motion_in_the_plan(crane) -> Non
     assert plan.q_goal[4] == pytest.approx(START[4], abs=1e-9)
     assert plan.move.duration < 1.5 * 5.0, plan.note()
     assert "rotator" not in (plan.note() or "")
+
+
+def test_control_reports_every_joints_pressures_and_commands(capsys, tmp_path) -> None:
+    """Before: the table's only pressure was the lumped joints' |ΔP| (its peak on the slew)
+    while a pinned cylinder's cap chamber reached several times more, and the figure drew ΔP
+    and valve current of lumped joints only."""
+    code, out, err = run_cli(capsys, "control", str(CRANE), "--start=" + ",".join(map(str, START)),
+                             "--target", ",".join(map(str, TARGET)), "--duration", "5",
+                             "--settle", "0.3", "-o", str(tmp_path))
+    assert code in (0, 3), err
+    table = json.loads(out)
+    run = ml.Run.load(tmp_path / "control.npz")
+    chambers = np.fmax(np.nan_to_num(run["pA"], nan=-1.0).max(axis=0),
+                       np.nan_to_num(run["pB"], nan=-1.0).max(axis=0)) / 1e6
+    for j, name in enumerate(run.spec.joint_names):
+        row = table["joints"][name]
+        assert row["command_unit"] == "A"
+        assert row["peak_command"] == pytest.approx(np.abs(run["ctrl"][:, j]).max())
+        if name in ("boom", "jib"):
+            assert row["pressure"] == "pA/pB"
+            assert row["peak_pressure_MPa"] == pytest.approx(chambers[j])
+        else:
+            assert row["pressure"] == "dP"
+    assert table["peak_pressure_MPa"] == pytest.approx(max(
+        r["peak_pressure_MPa"] for r in table["joints"].values()))
+    assert table["peak_pressure_MPa"] > table["peak_dP_MPa"]  # a chamber beyond every ΔP

@@ -29,6 +29,7 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "final_error_mm": ("final err [mm]", "{:.2f}"),
     "rms_orientation_mrad": ("RMS rot err [mrad]", "{:.2f}"),
     "peak_dP_MPa": ("peak |ΔP| [MPa]", "{:.2f}"),
+    "peak_pressure_MPa": ("peak pressure [MPa]", "{:.2f}"),
     "peak_iv_A": ("peak |i_v| [A]", "{:.3f}"),
     "saturation_s": ("time at saturation [s]", "{:.3f}"),
 }
@@ -50,6 +51,11 @@ class TrackingMetrics:
         peak_iv_A: largest |i_v|, A (NaN: no hydraulic joint).
         saturation_s: total time with some command at its limit, s.
         window: (t0, t1) of the move, s.
+        peak_pressure_MPa: largest pressure of any hydraulic joint, MPa: |ΔP| of a lumped
+            cylinder, a chamber pressure pA or pB of a pinned one (NaN: none).
+        peak_pressure_joint: the joint where it occurred, and which pressure ("dP", "pA", "pB").
+        joints: per joint: its peak pressure (MPa, and which: "dP" or "pA/pB"; NaN without)
+            and its peak |command| in its actuator's unit.
     """
 
     label: str
@@ -63,11 +69,13 @@ class TrackingMetrics:
     peak_iv_A: float
     saturation_s: float
     window: tuple[float, float]
+    peak_pressure_MPa: float = math.nan
+    peak_pressure_joint: str = ""
+    joints: dict[str, dict[str, Any]] = dataclasses.field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         """Plain JSON-friendly dict (NaN written as None)."""
-        out = dataclasses.asdict(self)
-        return {k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in out.items()}
+        return _plain(dataclasses.asdict(self))
 
 
 def tracking_metrics(run: Any, trajectory: Trajectory, *, label: str | None = None,
@@ -122,7 +130,37 @@ def tracking_metrics(run: Any, trajectory: Trajectory, *, label: str | None = No
         rms_orientation_mrad=rot,
         peak_dP_MPa=peak_dP, peak_dP_joint=joint, peak_iv_A=peak_iv,
         saturation_s=saturation_time(run), window=(t0, t1),
+        **_pressures(run),
     )
+
+
+def _pressures(run: Any) -> dict[str, Any]:
+    """The peak pressure over the joints (ΔP of lumped cylinders, chambers of pinned ones) and
+    each joint's peak pressure and command."""
+    names = run.spec.joint_names
+    peaks = {k: np.nanmax(np.abs(np.asarray(run[k])), axis=0, initial=-1.0,
+                          where=np.isfinite(np.asarray(run[k])))
+             for k in ("dP", "pA", "pB") if k in run}
+    ctrl = np.abs(np.asarray(run["ctrl"])) if "ctrl" in run else None
+    joints: dict[str, dict[str, Any]] = {}
+    best, where = math.nan, ""
+    for j, (name, joint) in enumerate(zip(names, run.spec.joints)):
+        mine = {k: float(v[j]) for k, v in peaks.items() if v[j] >= 0.0}
+        label = "pA/pB" if "pA" in mine or "pB" in mine else ("dP" if mine else "")
+        peak = max(mine.values()) / 1e6 if mine else math.nan
+        joints[name] = {"peak_pressure_MPa": peak, "pressure": label,
+                        "peak_command": float(ctrl[:, j].max()) if ctrl is not None else math.nan,
+                        "command_unit": _command_unit(joint)}
+        if mine and not peak <= best:
+            best, where = peak, f"{name} ({max(mine, key=mine.__getitem__)})"
+    return {"peak_pressure_MPa": best, "peak_pressure_joint": where, "joints": joints}
+
+
+def _command_unit(joint: Any) -> str:
+    try:
+        return model_of(joint).command_unit
+    except Exception:  # noqa: BLE001 - a stored run's plugin that is not loaded: unit unknown
+        return ""
 
 
 def _hydraulic(run: Any) -> tuple[np.ndarray | None, np.ndarray | None]:
@@ -169,3 +207,12 @@ def format_table(rows: Sequence[TrackingMetrics], columns: Sequence[str] | None 
 def to_json(rows: Sequence[TrackingMetrics]) -> str:
     """The metrics as a JSON list (NaN as null)."""
     return json.dumps([r.to_dict() for r in rows], indent=2)
+
+
+def _plain(value: Any) -> Any:
+    """NaN as None, through dicts and lists (JSON has no NaN)."""
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    return None if isinstance(value, float) and math.isnan(value) else value

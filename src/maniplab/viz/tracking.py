@@ -1,7 +1,8 @@
 """Comparison plots of closed-loop runs against their reference (matplotlib, no display needed).
 
 One figure: the Cartesian position error of each run, the end-effector coordinates against the
-reference, and per moving hydraulic joint the differential pressure and the valve current.
+reference, and per moving joint (at most four) its pressures (ΔP of a lumped cylinder, pA and pB
+of a pinned one) and its command in its actuator's unit.
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from maniplab.control.trajectory import Trajectory
+from maniplab.spec import model_of
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -30,9 +32,25 @@ def _moving_joints(runs: Sequence[Any], limit: int = 4) -> list[int]:
     for run in runs:
         q = np.asarray(run.q)
         span = np.maximum(span, q.max(axis=0) - q.min(axis=0))
-    hyd = np.isfinite(np.asarray(runs[0]["dP"])).any(axis=0)
-    order = [int(i) for i in np.argsort(-span) if hyd[i] and span[i] > 1e-6][:limit]
+    order = [int(i) for i in np.argsort(-span) if span[i] > 1e-6][:limit]
     return sorted(order)
+
+
+def _pressures(run: Any, j: int) -> list[tuple[str, np.ndarray]]:
+    """The joint's pressure signals, (name, values in Pa): ΔP, or pA and pB (none: a joint
+    without pressures)."""
+    out = []
+    for name in ("dP", "pA", "pB"):
+        if name in run and np.isfinite(np.asarray(run[name])[:, j]).any():
+            out.append((name, np.asarray(run[name])[:, j]))
+    return out
+
+
+def _command_unit(run: Any, j: int) -> str:
+    try:
+        return model_of(run.spec.joints[j]).command_unit
+    except Exception:  # noqa: BLE001 - a stored run's plugin that is not loaded
+        return ""
 
 
 def tracking_figure(runs: Sequence[Any], trajectory: Trajectory,
@@ -67,14 +85,21 @@ def tracking_figure(runs: Sequence[Any], trajectory: Trajectory,
             name = run.spec.joint_names[j]
             ax_p = fig.add_subplot(grid[2, col]) if k == 0 else fig.axes[2 + 2 * col]
             ax_i = fig.add_subplot(grid[3, col]) if k == 0 else fig.axes[3 + 2 * col]
-            ax_p.plot(t, run["dP"][:, j] / 1e6, color=colour)
-            if "dP_d" in run and k == 0:
+            pressures = _pressures(run, j)
+            for p, (signal, values) in enumerate(pressures):
+                ax_p.plot(t, values / 1e6, color=colour, ls=("-", "--")[p % 2],
+                          label=signal if k == 0 and len(pressures) > 1 else None)
+            if "dP_d" in run and k == 0 and np.isfinite(run["dP_d"][:, j]).any():
                 ax_p.plot(t, run["dP_d"][:, j] / 1e6, color="k", lw=0.8, ls=":",
                           label="ΔP_d (first run)")
-            ax_i.plot(t, run["iv"][:, j], color=colour)
-            ax_p.set_title(f"{name}: ΔP [MPa]")
-            ax_i.set_title(f"{name}: valve current [A]")
+            ax_i.plot(t, run["ctrl"][:, j], color=colour)
+            which = ", ".join("ΔP" if n == "dP" else n for n, _ in pressures) or "no pressure"
+            ax_p.set_title(f"{name}: {which} [MPa]")
+            unit = _command_unit(run, j)
+            ax_i.set_title(f"{name}: command [{unit}]" if unit else f"{name}: command")
             ax_i.set_xlabel("t [s]")
+            if len(pressures) > 1 and k == 0:
+                ax_p.legend(loc="best", fontsize="small")
     t0, t1 = trajectory.t0, trajectory.t0 + trajectory.duration
     for ax in (ax_err, ax_pos):
         ax.axvspan(t0, t1, color="0.92", zorder=0)
