@@ -363,14 +363,23 @@ def _write_inertial(element: ET.Element, body: mujoco.MjsBody) -> None:
 
 
 def _write_extension(root: ET.Element, s: mujoco.MjSpec) -> None:
-    """The engine plugins and their instances, each parameter as the text the spec holds."""
-    instances: dict[str, list[mujoco.MjsPlugin]] = {}
+    """The engine plugins and their instances, each parameter as the text the spec holds.
+
+    The instances keep the spec's order (a ``<plugin>`` element per run of instances of one
+    plugin): MuJoCo numbers plugin instances in the order the file lists them, and the compiled
+    file must number them as the spec does (``actuator_plugin``, the plugins' state addresses).
+    Grouping every instance of a plugin under one element reordered them on an arm whose plugins
+    alternate (a lumped, a pinned, a lumped cylinder).
+    """
+    runs: list[tuple[str, list[mujoco.MjsPlugin]]] = []
     for instance in s.plugins:
-        instances.setdefault(instance.plugin_name, []).append(instance)
-    if not instances:
+        if not runs or runs[-1][0] != instance.plugin_name:
+            runs.append((instance.plugin_name, []))
+        runs[-1][1].append(instance)
+    if not runs:
         return
     section = ET.SubElement(root, "extension")
-    for plugin, members in instances.items():
+    for plugin, members in runs:
         element = ET.SubElement(section, "plugin", plugin=plugin)
         for instance in members:
             item = ET.SubElement(element, "instance", name=instance.name)
