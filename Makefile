@@ -49,3 +49,10 @@ docs: $(STAMP)
 
 clean:
 	rm -rf $(VENV) .venv-fmpy out .pytest_cache .hypothesis build src/*.egg-info
+
+# maniplab's C code under AddressSanitizer and UBSan: the native library and an FMU's C functions
+# built with MANIPLAB_NATIVE_SANITIZE=1 (a cache folder of their own), the native tests and the
+# fuzzing of tests/sanitize/ (docs/guide/safety.md, "Sanitizers")
+.PHONY: sanitize
+sanitize: $(STAMP)
+	$(BIN)/python tests/sanitize/run.py
