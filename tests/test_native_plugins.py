@@ -15,10 +15,12 @@ from pathlib import Path
 import mujoco
 import numpy as np
 import pytest
+from mujoco import rollout
 
 import maniplab as ml
 
 DURATION = 2.0
+MIXED = Path(__file__).parent / "arms" / "mixed"
 
 # (start pose, per joint (amplitude A, frequency Hz)) chosen to stay inside the limits
 CASES = {
@@ -135,6 +137,44 @@ def test_plain_mujoco_falls_back_to_its_own_friction_and_limits(tmp_path: Path) 
     assert with_fallback[:, rotational].max() < 1.5e-3
     assert with_fallback[:, 3].max() < 0.5e-3  # q4, the telescope, m
     assert with_fallback.max(axis=0).sum() < without.max(axis=0).sum()
+
+
+@pytest.mark.parametrize("arm", ["erector_pinned", MIXED / "forestry_rotator.yaml"],
+                         ids=lambda a: Path(a).stem)
+def test_exported_pinned_arm_starts_where_the_plant_starts(arm: str | Path) -> None:
+    """Issue 33: the exported file's keyframe 0 is the plant's initial state (the chambers of a
+    pinned cylinder at tank pressure), so plain ``mj_step`` and ``mujoco.rollout`` of
+    ``ml.to_mjcf(spec)``, reset to it, reproduce ``ml.simulate`` from its default start to 1e-9.
+
+    Before: the file had no keyframe and MuJoCo starts every activation at 0 (both chambers at
+    0 Pa); over these 1 s of valve sines the boom of ``forestry_rotator`` was 1.3e-7 rad off
+    (4.3e-6 of its motion) and the erector_pinned's q3 1.1e-7 rad (1.4e-6 of its motion)."""
+    spec = ml.resolve_spec(arm)
+    spec = spec.with_overrides({f"joints.{j.name}.friction.model": "none" for j in spec.joints})
+    plant = ml.Plant(spec)
+    waves = [(0.2, 0.5 + 0.3 * j) for j in range(spec.n)]
+    run = ml.simulate(spec, inputs=_inputs(spec, waves), duration=1.0, sample_dt=plant.dt,
+                      progress=False)
+    limits = np.array([j.limits for j in spec.joints])
+    assert np.all((run.q > limits[:, 0] + 1e-3) & (run.q < limits[:, 1] - 1e-3))  # inside
+    model = mujoco.MjModel.from_xml_string(ml.to_mjcf(spec))
+    assert plant.substeps == 1 and model.opt.timestep == plant.dt
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, 0)
+    assert np.array_equal(data.act, plant.data.act) and np.any(data.act != 0.0)
+    start = np.empty(mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_FULLPHYSICS))
+    mujoco.mj_getState(model, data, start, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+    ctrl = run["ctrl"][:-1]
+    q = [data.qpos.copy()]
+    for u in ctrl:
+        data.ctrl[:] = u
+        mujoco.mj_step(model, data)
+        q.append(data.qpos.copy())
+    scale = np.ptp(run.q, axis=0)
+    assert np.max(np.abs(np.array(q) - run.q) / scale) < 1e-9
+    states, _ = rollout.rollout(model, mujoco.MjData(model), start[None], ctrl[None])
+    rolled = states[0][:, 1:1 + spec.n]  # FULLPHYSICS: time, qpos, ...
+    assert np.max(np.abs(rolled - run.q[1:]) / scale) < 1e-9
 
 
 def test_no_compiler_is_one_clear_line(tmp_path: Path) -> None:

@@ -25,7 +25,9 @@
   (:mod:`maniplab.sim.plant_model`);
 - after the arm's actuators, for each joint with LuGre friction, an actuator ``<joint>/lugre`` that is an
   instance of the engine plugin ``maniplab.lugre``: its one activation is the bristle state z,
-  its force the bristles' (σ2, the viscous part, is the joint's damping in the plant).
+  its force the bristles' (σ2, the viscous part, is the joint's damping in the plant);
+- a keyframe ``initial`` holding the actuators' initial states (a pinned cylinder's chambers at
+  tank pressure), where the plant starts: MuJoCo's own reset sets every activation to zero.
 
 Compiler choices, all written to the MJCF:
 
@@ -124,6 +126,7 @@ def _arm(spec: ManipulatorSpec) -> mujoco.MjSpec:
     for joint in spec.joints:
         if joint.friction.model is FrictionModel.lugre:
             _add_bristles(s, joint)
+    _add_initial_key(s, spec)
     activate_plugins(s)
     return s
 
@@ -246,6 +249,30 @@ def _share_supply(s: mujoco.MjSpec, max_flow: float) -> None:
     for instance in s.plugins:
         if instance.plugin_name == CYLINDER_PLUGIN:
             instance.config = {**instance.config, "pump_flow": repr(float(max_flow))}
+
+
+def _act_size(act: mujoco.MjsActuator) -> int:
+    """The activations MuJoCo gives ``act``: its ``actdim``, else one when it has dynamics."""
+    if act.actdim >= 0:
+        return int(act.actdim)
+    return 0 if act.dyntype == mujoco.mjtDyn.mjDYN_NONE else 1
+
+
+def _add_initial_key(s: mujoco.MjSpec, spec: ManipulatorSpec) -> None:
+    """Keyframe ``initial`` (the model's first): the arm at rest at q = 0 with each actuator's
+    initial states (:meth:`~maniplab.actuators.ActuatorPlugin.initial_state`), the state the
+    plant starts from. MuJoCo resets every activation to zero, which for a pinned cylinder means
+    both chambers at 0 Pa instead of tank pressure; ``mj_resetDataKeyframe(m, d, 0)`` starts a
+    plain MuJoCo run where ``ml.simulate`` starts."""
+    initial = {joint.name: model_of(joint).initial_state() for joint in spec.joints}
+    act: list[float] = []
+    for actuator in s.actuators:
+        size = _act_size(actuator)
+        values = np.zeros(size)
+        x = initial.get(actuator.name, np.zeros(0))[:size]
+        values[: len(x)] = x
+        act.extend(float(v) for v in values)
+    s.add_key(name=names.INITIAL_KEY, act=act)
 
 
 def _add_bristles(s: mujoco.MjSpec, joint: Joint) -> None:

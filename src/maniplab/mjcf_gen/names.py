@@ -33,6 +33,9 @@ joint name, so the name is free)."""
 LUGRE_PLUGIN = "maniplab.lugre"
 """The MuJoCo engine plugin (C, :mod:`maniplab_native`) of LuGre friction."""
 
+INITIAL_KEY = "initial"
+"""The model's first keyframe: the actuators' initial states, where the plant starts a run."""
+
 
 def body_name(joint_name: str) -> str:
     """Name of the MuJoCo body moved by the spec joint ``joint_name`` (e.g. 'q1' -> 'link_q1')."""

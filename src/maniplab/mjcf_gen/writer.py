@@ -286,6 +286,7 @@ def serialize(s: mujoco.MjSpec, comment: str | None = None) -> str:
     _write_body(ET.SubElement(root, "worldbody"), s.worldbody, world=True)
     _write_tendons(root, s.tendons)
     _write_actuators(root, s.actuators)
+    _write_keys(root, s)
     ET.indent(root, space="  ")
     return ET.tostring(root, encoding="unicode") + "\n"
 
@@ -300,7 +301,7 @@ def comment_text(text: str) -> str:
 
 
 def _check_supported(s: mujoco.MjSpec) -> None:
-    kinds = ("sensors", "equalities", "keys", "meshes", "hfields", "flexes", "pairs", "excludes",
+    kinds = ("sensors", "equalities", "meshes", "hfields", "flexes", "pairs", "excludes",
              "skins", "numerics", "texts", "tuples", "frames")
     present = [kind for kind in kinds if len(getattr(s, kind))]
     for tendon in s.tendons:
@@ -409,6 +410,27 @@ def _write_actuators(root: ET.Element, actuators: Iterable[mujoco.MjsActuator]) 
         if plugin:
             target["instance"] = act.plugin.name
         ET.SubElement(section, "plugin" if plugin else "general", head | target | attrs)
+
+
+def _write_keys(root: ET.Element, s: mujoco.MjSpec) -> None:
+    """The keyframes: their name and activations (the only parts the builder sets; the rest of a
+    key is the model's default: qpos0, zero velocities and controls)."""
+    if not len(s.keys):
+        return
+    section = ET.SubElement(root, "keyframe")
+    for key in s.keys:
+        _check_key(key)
+        attrs = {"name": key.name} if key.name else {}
+        if len(key.act):
+            attrs["act"] = _format(key.act)
+        ET.SubElement(section, "key", attrs)
+
+
+def _check_key(key: mujoco.MjsKey) -> None:
+    rest = [field for field in ("qpos", "qvel", "ctrl", "mpos", "mquat") if len(getattr(key, field))]
+    if rest or key.time:
+        raise NotImplementedError(f"the MJCF writer cannot write a keyframe's "
+                                  f"{', '.join(rest) or 'time'} yet")
 
 
 def _element(parent: ET.Element, tag: str, obj: Any, attrs: _Attrs, default: Any) -> ET.Element:
