@@ -32,8 +32,9 @@ SOLVERS: dict[str, Solver] = {name: name for name in
 
 
 def ideal(spec: ManipulatorSpec) -> ManipulatorSpec:
-    """The arm with an ideal torque/force source on every joint, no friction and no limits."""
-    overrides: dict[str, object] = {}
+    """The arm with an ideal torque/force source on every joint, no friction and no limits (and
+    no shared ``supply:``, which only pinned cylinders draw from)."""
+    overrides: dict[str, object] = {} if spec.supply is None else {"supply": None}
     for joint in spec.joints:
         overrides[f"joints.{joint.name}.actuator"] = {"type": IDEAL_SOURCE}
         overrides[f"joints.{joint.name}.friction"] = {"model": "none"}
