@@ -25,6 +25,7 @@ import pytest
 
 import maniplab as ml
 from maniplab.fmu import FmuError, build_fmu
+from maniplab.fmu.build import _plugin_values
 from maniplab.fmu.template import fill, model_template
 from maniplab.sim.plant import Plant
 from maniplab.sim.plant_model import build_plant_model
@@ -212,17 +213,22 @@ _DYNAMICS = ("body_mass", "body_inertia", "body_ipos", "body_pos", "body_quat", 
 @pytest.mark.parametrize("arm", [*ml.builtin_specs(), *ARMS, *MIXED], ids=lambda a: Path(a).stem)
 def test_template_with_other_values_compiles_to_the_overridden_plant(arm) -> None:
     """Each token sits where the spec's value goes: the template filled with new values is the
-    plant model of the spec with those overrides."""
+    plant model of the spec with those overrides. With a shared pump (``supply:``) the pinned
+    cylinders' supply pressure is one parameter, ``supply_pressure`` (before, issue 33: one per
+    cylinder, ``supply_pressure.<joint>``, whose override the spec refused as differing from the
+    pump's setting)."""
     plant = Plant(arm)
     template, params = model_template(plant)
     rng = np.random.default_rng(3)
     values = {p.name: (p.default or 1.0) * rng.uniform(1.5, 3.0) for p in params}
-    overridden = plant.spec.with_overrides({p.override: values[p.name] for p in params})
+    overridden = plant.spec.with_overrides({path: v for p in params
+                                            for path, v in p.overrides(values[p.name]).items()})
     expected = build_plant_model(overridden, dt=plant.dt / plant.substeps,
                                  integrator=plant.integrator)
     model = mujoco.MjModel.from_xml_string(fill(template, values))
     for field in _DYNAMICS:
         assert np.array_equal(getattr(model, field), getattr(expected, field)), field
+    assert _plugin_values(model) == _plugin_values(expected)  # leakage, supply pressures
     assert {p.name.split(".")[0] for p in params} <= {"payload", "viscous", "leakage",
                                                        "supply_pressure"}
 

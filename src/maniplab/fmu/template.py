@@ -10,6 +10,9 @@ value is a token the FMU replaces with the value (``%.17g``, exact for a double)
 - ``viscous.<joint>``: the joint's damping (``joints.<joint>.friction.viscous``);
 - ``leakage.<joint>``, ``supply_pressure.<joint>``: the cylinder plugin instance's config
   (``joints.<joint>.actuator.leakage``, ``...supply_pressure``);
+- ``supply_pressure``: with a shared pump (the spec's ``supply:``), the setting every pinned
+  cylinder draws at (``supply.pressure`` and each pinned cylinder's ``supply_pressure``, which
+  the spec requires equal), in place of their ``supply_pressure.<joint>``;
 - ``${plugin}``: the prefix of the plugins' names (the FMU registers maniplab's plugins under
   names of its own).
 """
@@ -21,6 +24,7 @@ import re
 import xml.etree.ElementTree as ET
 from collections.abc import Mapping
 
+from maniplab.actuators.hydraulic.pinned import MUJOCO_PLUGIN as CYLINDER_PLUGIN
 from maniplab.fmu.errors import FmuError
 from maniplab.friction import FrictionModel
 from maniplab.mjcf_gen.names import END_EFFECTOR
@@ -45,6 +49,8 @@ class Parameter:
         override: the spec's dotted path of the same value (``ml.simulate(overrides=...)``).
         positive: it must be > 0 (else >= 0).
         description: one line for modelDescription.xml.
+        also: other dotted paths that hold the same value (the shared supply's pressure is also
+            each pinned cylinder's ``supply_pressure``).
     """
 
     name: str
@@ -53,6 +59,11 @@ class Parameter:
     override: str
     positive: bool
     description: str
+    also: tuple[str, ...] = ()
+
+    def overrides(self, value: float) -> dict[str, float]:
+        """The spec's overrides that give this parameter ``value``."""
+        return {path: value for path in (self.override, *self.also)}
 
 
 def model_template(plant: Plant) -> tuple[str, list[Parameter]]:
@@ -68,7 +79,7 @@ def model_template(plant: Plant) -> tuple[str, list[Parameter]]:
     if option is None:  # the plant always sets its time step
         raise FmuError(f"{spec.name}: the plant's MJCF has no <option>")
     ET.SubElement(option, "flag", {name: "disable" for name in DISABLED})
-    params = _payload(root) + _viscous(root, plant) + _plugin_configs(root)
+    params = _payload(root) + _viscous(root, plant) + _plugin_configs(root, plant)
     for plugin in root.iterfind("extension/plugin"):
         plugin.set("plugin", plugin.get("plugin", "").replace("maniplab.", PLUGIN_TOKEN, 1))
     ET.indent(root, space="  ")
@@ -130,18 +141,32 @@ _CONFIGS = {
 }
 
 
-def _plugin_configs(root: ET.Element) -> list[Parameter]:
-    """leakage.<joint> and supply_pressure.<joint> of each actuator with a plugin instance."""
+def _plugin_configs(root: ET.Element, plant: Plant) -> list[Parameter]:
+    """leakage.<joint> and supply_pressure.<joint> of each actuator with a plugin instance; with
+    a shared supply, one ``supply_pressure`` for all the pinned cylinders."""
     instances = {i.get("name"): i for i in root.iterfind("extension/plugin/instance")}
+    plugin_of = {i.get("name"): p.get("plugin") for p in root.iterfind("extension/plugin")
+                 for i in p.iterfind("instance")}
+    supply = plant.spec.supply
+    pumped: list[str] = []
     out = []
     for actuator in root.iterfind("actuator/plugin"):
         joint, instance = actuator.get("name", ""), instances.get(actuator.get("instance"))
+        shared = supply is not None and plugin_of.get(actuator.get("instance")) == CYLINDER_PLUGIN
         for config in () if instance is None else instance.iterfind("config"):
             key = config.get("key", "")
-            if key in _CONFIGS:
+            if shared and key == "supply_pressure":
+                _token(config, "value", "supply_pressure")
+                pumped.append(joint)
+            elif key in _CONFIGS:
                 unit, positive, text = _CONFIGS[key]
                 value = _token(config, "value", f"{key}.{joint}")
                 out.append(Parameter(f"{key}.{joint}", value, unit,
                                      f"joints.{joint}.actuator.{key}", positive,
                                      text.format(joint)))
+    if supply is not None and pumped:
+        out.append(Parameter("supply_pressure", float(supply.pressure), "Pa", "supply.pressure",
+                             True, "the shared pump's setting: the supply pressure of every "
+                             "pinned cylinder", tuple(f"joints.{j}.actuator.supply_pressure"
+                                                      for j in pumped)))
     return out
