@@ -63,3 +63,22 @@ def test_control_reports_every_joints_pressures_and_commands(capsys, tmp_path) -
     assert table["peak_pressure_MPa"] == pytest.approx(max(
         r["peak_pressure_MPa"] for r in table["joints"].values()))
     assert table["peak_pressure_MPa"] > table["peak_dP_MPa"]  # a chamber beyond every ΔP
+
+
+def test_compare_says_which_joints_have_no_such_signal_instead_of_empty_panels() -> None:
+    """Before: `compare --signals dP,pA` on a mixed arm drew empty ±0.05 panels for the joints
+    without the signal, and chose the columns by dP alone (the pinned joints left out)."""
+    from maniplab.viz.plots import compare
+
+    spec = ml.resolve_spec(CRANE)
+    run = ml.simulate(spec, duration=0.2, initial={"q": START, "dP": "gravity"},
+                      inputs={"boom": 0.2, "slew": 0.1})
+    fig = compare([run], ["dP", "pA"])
+    shown = [ax for ax in fig.axes if ax.axison]
+    hidden = [ax for ax in fig.axes if not ax.axison]
+    for ax in shown:  # every drawn panel has data
+        assert any(np.isfinite(line.get_ydata()).any() for line in ax.get_lines()), ax.get_title()
+    assert {ax.get_title().split(":")[0] for ax in shown} >= {"slew", "boom", "jib"}
+    notes = [text.get_text() for ax in hidden for text in ax.texts]
+    assert any("boom: no ΔP" in note and "pinned cylinder" in note for note in notes), notes
+    assert any("slew: no cap-side pressure" in note for note in notes), notes

@@ -125,3 +125,9 @@ def test_control_and_sweep_refuse_a_duration_out_of_range_before_any_work(
     code, _, err = run_cli(capsys, *argv, "-o", str(tmp_path / "out"))
     assert code == 2 and len(err.strip().splitlines()) == 1 and "duration" in err
     assert not (tmp_path / "out").exists()
+
+
+def test_a_huge_step_is_refused_in_one_line_not_an_overflow() -> None:
+    """Found by the sanitizer fuzz: Plant(dt=1e308) ended in an OverflowError traceback."""
+    with pytest.raises(ml.ManiplabError, match="more than 1000 sub-steps"):
+        Plant("erector", dt=1e308)

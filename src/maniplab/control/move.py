@@ -7,6 +7,8 @@ import dataclasses
 from collections.abc import Callable, Sequence
 from typing import Any
 
+import numpy as np
+
 from maniplab.control.cascade import CascadeController
 from maniplab.control.interface import TOLERANCES
 from maniplab.control.metrics import TrackingMetrics, tracking_metrics
@@ -59,8 +61,23 @@ class MoveResult:
         causes = [f for f in health.findings if f.check != "tracking"]  # the miss itself
         if causes:
             return f"{what}: {causes[0].line()}"
-        return (f"{what}: no actuator reached a limit; raise the outer gains (control.position) "
+        gains = ("the baseline's joint gains (control.pid_only.kp, .ki)"
+                 if self.run.label.startswith("pid") else
+                 "the outer gains (control.position)" if self.run.label.startswith("cascade")
+                 else "your controller's gains")
+        return (f"{what}: {self._farthest_joint()}; no actuator reached a limit: raise {gains} "
                 "or check the controller's model of the arm (payload, friction)")
+
+    def _farthest_joint(self) -> str:
+        """The joint that ends farthest from its planned goal, relative to its range."""
+        q, goal = np.asarray(self.run.q)[-1], np.asarray(self.plan.q_goal)
+        lower = np.array([j.limits[0] if j.limits else -np.pi for j in self.run.spec.joints])
+        upper = np.array([j.limits[1] if j.limits else np.pi for j in self.run.spec.joints])
+        off = np.abs(q - goal) / np.maximum(upper - lower, 1e-9)
+        j = int(np.argmax(off))
+        unit = "m" if self.run.spec.joints[j].type.value == "P" else "rad"
+        return (f"joint {self.run.spec.joint_names[j]} ends {q[j] - goal[j]:+.3g} {unit} from "
+                "its planned goal")
 
 
 def run_move(spec: ManipulatorSpec, target: Sequence[float], *, start: Sequence[float] | None,

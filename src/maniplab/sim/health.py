@@ -148,8 +148,8 @@ def _saturation(run: Run, hold: np.ndarray, span: float) -> list[Finding]:
             out.append(Finding(
                 Severity.WARNING, "saturation", name,
                 f"command at its limit for {seconds:.3g} s ({seconds / span:.0%} of the run)",
-                "the actuator cannot deliver what was asked: a slower move (maniplab control "
-                "--fit stretch), lower gains, or a larger actuator (valve_gain, current_limit)"))
+                "the actuator cannot deliver what was asked: a longer move duration, lower "
+                "gains, or a larger actuator (valve_gain, current_limit)"))
     return out
 
 
@@ -233,8 +233,9 @@ def _diverging(run: Run) -> list[Finding]:
         return [Finding(
             Severity.FAILURE, "diverging", None,
             f"the tracking error grows ({1e3 * before:.3g} mm, then {1e3 * last:.3g} mm)",
-            "the loop is unstable: lower the outer gains (control.position) or the pressure "
-            "bandwidth (control.pressure.bandwidth), or run 'maniplab tune'")]
+            _gains(run, "the loop is unstable: lower")
+            + " or the pressure bandwidth (control.pressure.bandwidth), or run 'maniplab tune'"
+            if _mode(run) != "pid" else _gains(run, "the loop is unstable: lower"))]
     return []
 
 
@@ -256,5 +257,21 @@ def _tracking(run: Run) -> list[Finding]:
         return []
     return [Finding(
         Severity.FAILURE, "tracking", None, "; ".join(misses),
-        "the controller does not follow its reference: check its gains and model of the arm "
-        "(payload, friction), or give the move more time")]
+        _gains(run, "the controller does not follow its reference: raise")
+        + " or check its model of the arm (payload, friction)")]
+
+
+def _mode(run: Run) -> str | None:
+    """The maniplab controller's mode ("cascade", "pid"), None for another controller."""
+    control = (run.meta or {}).get("control")
+    return control.get("mode") if isinstance(control, dict) else None
+
+
+def _gains(run: Run, verb: str) -> str:
+    """``verb`` the gains of the run's controller, named as its settings are."""
+    mode = _mode(run)
+    if mode == "pid":
+        return f"{verb} the baseline's joint gains (control.pid_only.kp, .ki)"
+    if mode == "cascade":
+        return f"{verb} the outer gains (control.position, control.orientation)"
+    return f"{verb} your controller's gains"

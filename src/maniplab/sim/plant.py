@@ -130,7 +130,8 @@ class Plant:
                 f"{self.step_limit.describe()}, below the {MIN_STEP:g} s a simulation can afford: "
                 "check that actuator's parameters (an oil volume or valve far off?)",
                 time=0.0, joint=self.step_limit.joint, dt=self.dt, resolved=True)
-        self.substeps = max(1, math.ceil(self.dt / self.step_limit.dt * (1.0 - 1e-9)))
+        ratio = self.dt / self.step_limit.dt * (1.0 - 1e-9)  # inf for a dt of 1e308
+        self.substeps = max(1, math.ceil(ratio)) if ratio <= MAX_SUBSTEPS else MAX_SUBSTEPS + 1
         if self.substeps > MAX_SUBSTEPS:
             raise InstabilityError(
                 f"{self.step_limit.describe()}: more than {MAX_SUBSTEPS} sub-steps per step",

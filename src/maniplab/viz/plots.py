@@ -51,8 +51,9 @@ def compare(runs: Sequence[Run], signals: Sequence[str] = ("q",),
         signals: signal names (``q``, ``qd``, ``dP``, ``iv``, ``tau_fric``, ``mode``, ...),
             ``ee_path`` for the end-effector path and ``tracking_error`` for the distance from
             the controller's reference (closed-loop runs); one row of subplots each.
-        joints: joint names for the columns of per-joint signals (default: every joint where the
-            first per-joint signal is finite and changes in some run).
+        joints: joint names for the columns of per-joint signals (default: every joint where a
+            per-joint signal is finite and changes in some run). A joint without a signal (ΔP
+            of a pinned cylinder, pA of a lumped one) gets a panel saying so, not an empty plot.
         labels: legend entries (default: the parameters that differ between the runs).
         title: figure title (default: the arm's name).
 
@@ -90,23 +91,34 @@ def _active_joints(runs: Sequence[Run], signals: Sequence[str]) -> list[str]:
     if not signals:
         return []
     for run in runs:
-        if signals[0] not in run:
-            raise PlotError(f"run {run.label!r} has no signal {signals[0]!r}; it has {', '.join(run)}")
+        for signal in signals:
+            if signal not in run:
+                raise PlotError(f"run {run.label!r} has no signal {signal!r}; it has "
+                                f"{', '.join(run)}")
     active = np.zeros(spec.n, dtype=bool)
     for run in runs:
-        values = np.asarray(run[signals[0]], dtype=float)
-        finite = np.isfinite(values).any(axis=0)
-        varies = np.nanmax(values, axis=0, initial=-np.inf) > np.nanmin(values, axis=0, initial=np.inf)
-        active |= finite & varies
+        for signal in signals:  # a joint active in any signal (ΔP on one joint, pA on another)
+            values = np.asarray(run[signal], dtype=float)
+            finite = np.isfinite(values).any(axis=0)
+            varies = (np.nanmax(values, axis=0, initial=-np.inf, where=np.isfinite(values))
+                      > np.nanmin(values, axis=0, initial=np.inf, where=np.isfinite(values)))
+            active |= finite & varies
     return [name for name, keep in zip(spec.joint_names, active) if keep] or list(spec.joint_names)
 
 
 def _plot_joint(ax, runs: Sequence[Run], labels: Sequence[str], signal: str, j: int) -> None:
     joint = runs[0].spec.joints[j]
     what, scale, unit = display(signal, joint.prismatic)
-    for k, (run, label) in enumerate(zip(runs, labels)):
+    for run in runs:
         if signal not in run:
             raise PlotError(f"run {run.label!r} has no signal {signal!r}; it has {', '.join(run)}")
+    if not any(np.isfinite(np.asarray(run[signal], dtype=float)[:, j]).any() for run in runs):
+        # the joint's actuator has no such state (ΔP of a pinned cylinder): say so, draw nothing
+        ax.set_axis_off()
+        ax.text(0.5, 0.5, f"{joint.name}: no {what}\n({_actuator_kind(joint)})",
+                ha="center", va="center", transform=ax.transAxes, color="0.4")
+        return
+    for k, (run, label) in enumerate(zip(runs, labels)):
         values = np.asarray(run[signal], dtype=float)[:, j] * scale
         draw = ax.step if signal == "mode" else ax.plot
         draw(run.t, values, color=f"C{k}", label=label, linestyle=_DASHES[k % len(_DASHES)],
@@ -116,6 +128,16 @@ def _plot_joint(ax, runs: Sequence[Run], labels: Sequence[str], signal: str, j: 
     ax.set_ylabel(f"{what} [{unit}]" if unit else what)
     if signal == "mode":
         ax.set_yticks([m.value for m in FrictionMode], [m.name for m in FrictionMode])
+
+
+def _actuator_kind(joint: Any) -> str:
+    """What drives the joint, in a few words."""
+    actuator = joint.actuator
+    if getattr(actuator, "cylinder", None) is not None:
+        return "a pinned cylinder: pA, pB"
+    if actuator.type == "hydraulic":
+        return "a lumped cylinder: ΔP"
+    return f"a {actuator.type} actuator"
 
 
 def _plot_error(fig: Figure, row_axes: np.ndarray, runs: Sequence[Run],
