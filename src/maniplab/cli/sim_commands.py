@@ -47,16 +47,26 @@ def _run_options(parser: argparse.ArgumentParser) -> None:
                         help=_INPUT_HELP)
     parser.add_argument("--duration", type=float, required=True, metavar="T",
                         help="simulated time, s")
-    parser.add_argument("--dt", type=float, metavar="S", help="time step, s (default 1e-3)")
+    parser.add_argument("--dt", type=float, metavar="S",
+                        help="time step, s (default: derived from the arm, 1 ms when its "
+                             "actuators allow it; 'maniplab info' shows it)")
     parser.add_argument("--sample-dt", type=positive_seconds, metavar="S", help=SAMPLE_DT_HELP)
+    _start_option(parser)
     parser.add_argument("--balanced", action="store_true",
-                        help="start with the pressures that hold the arm against gravity "
-                             "(default: zero pressure, the arm settles on its cylinders)")
+                        help="start with the pressures that hold the arm against gravity at the "
+                             "start pose (default: zero pressure, the arm settles on its "
+                             "cylinders)")
+
+
+def _start_option(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--start", metavar="Q1,Q2,...",
+                        help="initial joint positions, rad or m (default: all 0); write "
+                             "--start=-0.2,... when the first value is negative")
 
 
 def _add_simulate(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("simulate", help="simulate an arm under input signals, store the run",
-                       description="Simulate the arm from rest at q = 0 under the given inputs "
+                       description="Simulate the arm from rest at q = 0 (or --start) under the given inputs "
                                    "and write the run (.npz: every signal, the spec, the "
                                    "parameters).")
     spec_argument(p)
@@ -114,7 +124,7 @@ def _add_crossval(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("crossval", help="cross-validate the MuJoCo plant and the analytic model",
                        description="Simulate the arm with ideal actuators (no friction, no "
                                    "limits) on the MuJoCo plant and as the analytic model "
-                                   "integrated by scipy, from rest at q = 0; print the largest "
+                                   "integrated by scipy, from rest at q = 0 (or --start); print the largest "
                                    "deviation and plot both.")
     spec_argument(p)
     p.add_argument("--input", action="append", default=[], metavar="JOINT=SIGNAL",
@@ -123,6 +133,7 @@ def _add_crossval(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--duration", type=float, default=5.0, metavar="T",
                    help="simulated time, s (default: 5)")
     p.add_argument("--method", default="DOP853", help="scipy solver (default: DOP853)")
+    _start_option(p)
     p.add_argument("-o", "--output", type=output_file, default=Path("out/crossval.png"), metavar="FILE",
                    help="figure of both trajectories (default: out/crossval.png)")
     p.set_defaults(func=_cmd_crossval)
@@ -141,7 +152,22 @@ def _inputs(texts: list[str]) -> dict[str | int, Signal]:
 
 
 def _initial(args: argparse.Namespace) -> dict[str, object] | None:
-    return {"dP": "gravity"} if args.balanced else None
+    """The run's initial state of --start and --balanced (None: at rest at q = 0, no pressure)."""
+    initial: dict[str, object] = {}
+    if args.start:
+        initial["q"] = _start(args)
+    if getattr(args, "balanced", False):
+        initial["dP"] = "gravity"
+    return initial or None
+
+
+def _start(args: argparse.Namespace) -> list[float]:
+    """The joint positions of --start, one per joint of the spec."""
+    import maniplab as ml
+    from maniplab.control.point_to_point import parse_numbers
+
+    spec = ml.resolve_spec(args.spec)
+    return list(parse_numbers(args.start, "--start", (spec.n,)))
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
@@ -236,12 +262,15 @@ def _cmd_runs(args: argparse.Namespace) -> int:
 
 
 def _cmd_crossval(args: argparse.Namespace) -> int:
+    import numpy as np
+
     from maniplab.sim.crossval import crossvalidate
     from maniplab.viz.plots import compare, save_figure
 
     # crossvalidate takes joint names only, which these keys are
     inputs = {str(joint): signal for joint, signal in _inputs(args.input).items()}
-    result = crossvalidate(args.spec, inputs=inputs, duration=args.duration, method=args.method)
+    result = crossvalidate(args.spec, inputs=inputs, duration=args.duration, method=args.method,
+                           q0=np.asarray(_start(args)) if args.start else None)
     runs = [result.mujoco, result.analytic]
     figure = compare(runs, signals=["q"], labels=["MuJoCo plant (RK4)", f"analytic model ({args.method})"],
                      title=f"{result.mujoco.spec.name}: MuJoCo plant vs analytic model")
