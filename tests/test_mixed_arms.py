@@ -118,3 +118,15 @@ def test_a_start_of_the_wrong_length_is_one_line(capsys, tmp_path) -> None:
     code, _, err = run_cli(capsys, "simulate", "erector", "--start=1,2", "--duration", "0.1",
                            "-o", str(tmp_path / "r.npz"))
     assert code == 2 and "--start" in err and "expected 6" in err
+
+
+def test_info_shows_the_signed_moment_arm_and_the_shared_pump(capsys) -> None:
+    """Before: the table printed |r| (positive) while the detail line printed r < 0, and the
+    shared pump was not shown."""
+    code, out, _ = run_cli(capsys, "info", str(CRANE))
+    assert code == 0
+    maps = ml.ActuatorMaps(CRANE)
+    lo, hi = maps.spec.joints[1].limits
+    r = maps.moment_arms(np.array([[0.0, q, 1.0, 0.0, 0.0] for q in np.linspace(lo, hi, 33)]))
+    assert f"r {r[:, 1].min():.3g}..{r[:, 1].max():.3g} m/rad" in out
+    assert "pump: 20 MPa, 150 L/min, shared by boom, jib" in out

@@ -193,8 +193,8 @@ def test_the_boom_as_given_is_valid_and_shows_its_cylinder(capsys: pytest.Captur
     y = np.array(AXES["y"])
     q = np.linspace(-1.0, 0.3, 2001)
     s = [_length_by_hand(x, p, c, y, False) for x in q]
-    arm = np.abs(np.gradient(s, q))
-    assert f"r {arm.min():.3g}..{arm.max():.3g} m" in out
+    arm = np.gradient(s, q)  # signed, in the table as in the detail line (issue 33)
+    assert f"r {arm.min():.3g}..{arm.max():.3g} m/rad" in out
     assert "⌀100/56 x 850 mm" in out
     ends = [optimize.brentq(lambda x, length=length: _length_by_hand(x, p, c, y, False) - length,
                             -1.6, 0.9) for length in (0.79 + 0.85, 0.79)]

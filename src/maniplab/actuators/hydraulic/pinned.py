@@ -272,11 +272,12 @@ class PinnedCylinder(ActuatorPlugin):
         act.target = tendon.name
 
     def describe(self) -> str:
-        """``cylinder ⌀100/56 x 535 mm, r 0.21..0.30 m, Ps 8 MPa``."""
+        """``cylinder ⌀100/56 x 535 mm, r -0.30..-0.21 m/rad, Ps 8 MPa`` (r signed as
+        :meth:`details` gives it: negative where extending the rod turns the joint backwards)."""
         p, c = self.params, self.params.cylinder
         lo, hi = self.joint.limits or (0.0, 0.0)
-        arms = np.abs(self.geometry.arm(np.linspace(lo, hi, 33)))
-        unit = "" if self.joint.prismatic else " m"
+        arms = self.geometry.arm(np.linspace(lo, hi, 33))  # signed, as details() prints it
+        unit = " (ratio)" if self.joint.prismatic else " m/rad"
         relief = f" relief {p.relief_pressure / 1e6:g} MPa" if p.relief_pressure else ""
         return (f"cylinder ⌀{c.bore * 1e3:g}/{c.rod * 1e3:g} x {c.stroke * 1e3:g} mm, "
                 f"r {arms.min():.3g}..{arms.max():.3g}{unit}, "
@@ -292,7 +293,7 @@ class PinnedCylinder(ActuatorPlugin):
         s, r = self.geometry.length(q), self.geometry.arm(q)
         allowed = self.geometry.span(c.min_length, c.max_length, 0.5 * (lo + hi))
         unit = self.geometry.unit
-        arm_unit = "" if j.prismatic else " m/rad"
+        arm_unit = " (ratio)" if j.prismatic else " m/rad"
         where = (f"{j.name}: cylinder s {s.min():.4g}..{s.max():.4g} m over the limits (its stroke "
                  f"allows [{allowed[0]:.4g}, {allowed[1]:.4g}] {unit}), r(q) {r.min():.4g}.."
                  f"{r.max():.4g}{arm_unit}")
