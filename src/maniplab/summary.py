@@ -22,8 +22,9 @@ def spec_table(spec: ManipulatorSpec) -> str:
     if spec.supply is not None:
         sharing = ", ".join(j.name for j in spec.joints
                             if getattr(j.actuator, "cylinder", None) is not None)
-        lines += ["", f"pump: {spec.supply.pressure / 1e6:g} MPa, "
-                      f"{spec.supply.max_flow * 6e4:.4g} L/min, shared by {sharing}"]
+        pump = (f"pump: {spec.supply.pressure / 1e6:g} MPa, "
+                f"{spec.supply.max_flow * 6e4:.4g} L/min, shared by {sharing}")
+        lines += ["", pump]
     lines += [
         "",
         f"end-effector: {ee.mass:g} kg at offset {_vec(ee.offset)} m",
