@@ -159,6 +159,31 @@ def test_the_closed_loop_move_reports_its_verdict(tmp_path: Path) -> None:
         app.close()
 
 
+def test_your_own_controller_is_offered_for_closed_loop_moves(tmp_path: Path) -> None:
+    """Issue 41: `maniplab gui --controller MODULE:NAME` offers your controller beside the
+    cascade and the PID baseline; its move is the one run_move gives with that factory."""
+    from maniplab.control.cascade import CascadeController
+    from maniplab.control.move import run_move
+
+    def baseline(spec, move):
+        return CascadeController(spec, move, mode="pid")
+
+    spec = ml.builtin_spec("crane3")
+    app = Gui(spec, tmp_path / "ws", port=_port(), controllers={"baseline": baseline})
+    try:
+        assert app.simulate.mode.options == ("cascade", "pid", "baseline")
+        app.simulate.target.value = (5.46, 0.6, 1.4)
+        app.simulate.move_duration.value = 3.0
+        app.simulate.mode.value = "baseline"
+        app.simulate.run_move()
+        assert "stored run 'run-baseline'" in _wait_idle(app)
+        run = app.workspace.load_run("run-baseline")
+        alone = run_move(spec, [5.46, 0.6, 1.4], start=None, duration=3.0, controller=baseline)
+        np.testing.assert_array_equal(run.q, alone.run.q)
+    finally:
+        app.close()
+
+
 def test_gui_listens_on_localhost_and_warns_loudly_otherwise(tmp_path: Path) -> None:
     app = Gui(ml.builtin_spec("planar2"), tmp_path / "ws", port=_port())
     try:

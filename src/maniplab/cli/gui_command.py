@@ -28,16 +28,22 @@ def add(sub: argparse._SubParsersAction) -> None:
     gui.add_argument("--no-browser", action="store_true", help="do not open a browser")
     gui.add_argument("--workspace", type=Path, default=Path("maniplab-workspace"), metavar="DIR",
                      help="folder of the runs, specs and exports (default: maniplab-workspace)")
+    gui.add_argument("--controller", action="append", default=[], metavar="MODULE:NAME",
+                     help="offer your own controller in the closed-loop moves (a factory "
+                          "NAME(spec, move) in MODULE or FILE.py, as 'maniplab control "
+                          "--controller' takes it; repeatable)")
     gui.set_defaults(func=_cmd_gui)
 
 
 def _cmd_gui(args: argparse.Namespace) -> int:
     import maniplab as ml
+    from maniplab.control.loading import load_factory
     from maniplab.gui.app import exposed, serve
 
     spec = ml.resolve_spec(args.spec)
+    controllers = {text.rpartition(":")[2]: load_factory(text) for text in args.controller}
     began = time.perf_counter()
-    app = serve(spec, args.workspace, host=args.host, port=args.port)
+    app = serve(spec, args.workspace, host=args.host, port=args.port, controllers=controllers)
     print(f"maniplab gui: {app.url} (workspace {app.workspace.root}; "
           f"ready in {time.perf_counter() - began:.1f} s; Ctrl-C stops)", flush=True)
     if exposed(args.host):

@@ -41,10 +41,14 @@ class Gui:
         host: interface to listen on (default localhost only).
         port: TCP port (the next free one above it when taken).
         token: the secret the page's address carries (default: a fresh random one).
+        controllers: your own controllers for closed-loop moves, name -> factory
+            ``factory(spec, move) -> controller`` (offered beside the cascade and the PID
+            baseline; loaded by whoever starts the server, never named by the page).
     """
 
     def __init__(self, spec: ManipulatorSpec, workspace: str | Path, *, host: str = "127.0.0.1",
-                 port: int = 8080, token: str | None = None) -> None:
+                 port: int = 8080, token: str | None = None,
+                 controllers: dict[str, Callable[..., Any]] | None = None) -> None:
         import viser
 
         from maniplab.gui.access import Access, hooked, new_token
@@ -60,6 +64,7 @@ class Gui:
         self._spec_listeners: list[Callable[[], None]] = []
         self._run_listeners: list[Callable[[], None]] = []
         self.token = token or new_token()
+        self.controllers = dict(controllers or {})
         self.said = "idle"
         with contextlib.redirect_stdout(io.StringIO()), hooked(Access(self.token, [host])):
             self.server = viser.ViserServer(host=host, port=port, label="maniplab", verbose=False)
@@ -151,9 +156,10 @@ class Gui:
 
 
 def serve(spec: ManipulatorSpec, workspace: str | Path, *, host: str = "127.0.0.1",
-          port: int = 8080, token: str | None = None) -> Gui:
+          port: int = 8080, token: str | None = None,
+          controllers: dict[str, Callable[..., Any]] | None = None) -> Gui:
     """Start the GUI server (it runs in background threads until :meth:`Gui.close`)."""
-    return Gui(spec, workspace, host=host, port=port, token=token)
+    return Gui(spec, workspace, host=host, port=port, token=token, controllers=controllers)
 
 
 def exposed(host: str) -> bool:

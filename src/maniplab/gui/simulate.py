@@ -105,7 +105,7 @@ class SimulateTab:
                                           min=(-BIG,) * 3, max=(BIG,) * 3)
             self.move_duration = gui.add_number("Move duration, s", 2.0, min=0.01,
                                                 max=MAX_DURATION)
-            self.mode = gui.add_dropdown("Controller", ("cascade", "pid"))
+            self.mode = gui.add_dropdown("Controller", ("cascade", "pid", *app.controllers))
             gui.add_button("Run move", color="green").on_click(lambda _: self.run_move())
             self.verdict = gui.add_markdown("")
         self.gizmo: Any = None
@@ -207,7 +207,8 @@ class SimulateTab:
         self.target.value = _rounded(self.gizmo.position)
 
     def run_move(self) -> None:
-        """Run the cascade (or PID-only) controller to the target and store the run."""
+        """Run the chosen controller (the cascade, the PID-only baseline, or one of yours) to the
+        target and store the run."""
         from maniplab.control.move import run_move
 
         spec, target = self.app.spec, [float(x) for x in self.target.value]
@@ -225,9 +226,11 @@ class SimulateTab:
             return self._store(result.run, name)
 
         self.verdict.content = ""
+        factory = self.app.controllers.get(mode)  # your own (gui --controller), else built-in
         self.app.jobs.start(f"{mode} move of {spec.name}",
                             lambda: run_move(spec, target, start=None, duration=duration,
-                                             mode=mode), done)
+                                             mode="cascade" if factory else mode,
+                                             controller=factory), done)
 
 
 def _number(text: str, what: str) -> float | None:
