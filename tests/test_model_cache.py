@@ -192,3 +192,16 @@ def test_import_has_no_side_effects(tmp_path: Path) -> None:
                    env={**os.environ, "MANIPLAB_CACHE": str(root)})
     # only MuJoCo's plugin library, which `import mujoco` builds on first use (maniplab_native)
     assert not root.exists() or [p.name for p in root.iterdir()] == ["plugins"]
+
+
+def test_the_cache_key_follows_the_generators_source(tmp_path: Path) -> None:
+    """Issue 42: the key held a hand-set generator version, so a changed model with a warm cache
+    was tested against code an older generator compiled. Now the key hashes the sources."""
+    folder = tmp_path / "model"
+    folder.mkdir()
+    (folder / "recursive.py").write_text("def rnea(): return 1\n")
+    before = build.generator_hash(folder)
+    (folder / "recursive.py").write_text("def rnea(): return -1\n")  # a sign flipped
+    assert build.generator_hash(folder) != before
+    assert build.cache_inputs(ml.builtin_spec("planar2"), "python")["generator"] == \
+        build.generator_hash()  # the package's own sources

@@ -14,6 +14,7 @@ Backends:
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import importlib.machinery
 import importlib.util
 import os
@@ -38,8 +39,17 @@ from maniplab.model.version import package_version
 from maniplab.progress import Progress
 from maniplab.spec import ManipulatorSpec
 
-#: Bump when the generated code changes in any way: it is part of every cache key.
-GENERATOR_VERSION = "3"
+
+def generator_hash(folder: Path = Path(__file__).parent) -> str:
+    """SHA-256 of the sources that generate the model (every module of this package): part of
+    every cache key, so a changed generator never loads code an older one compiled."""
+    digest = hashlib.sha256()
+    for source in sorted(folder.glob("*.py")):
+        digest.update(source.name.encode() + b"\0" + source.read_bytes() + b"\0")
+    return digest.hexdigest()
+
+
+_GENERATOR = generator_hash()
 
 BACKENDS = ("auto", "c", "python")
 _LOADED: dict[str, Any] = {}  # cache key -> loaded kernels, for this process
@@ -84,7 +94,7 @@ def cache_inputs(spec: ManipulatorSpec, backend: str) -> dict[str, Any]:
     """Everything the generated code depends on (hashed into the cache key)."""
     inputs: dict[str, Any] = {
         "structure": structure_key(spec), "n": spec.n, "maniplab": package_version(),
-        "generator": GENERATOR_VERSION, "backend": backend,
+        "generator": _GENERATOR, "backend": backend,
     }
     if backend == "c":
         compiler = find_compiler()
