@@ -105,7 +105,7 @@ def test_engine_plugin_refuses_a_bad_config() -> None:
     s = mujoco.MjSpec.from_string(ml.to_mjcf(ml.builtin_spec("crane3")))
     mujoco.MjData(s.compile())  # as exported: accepted
     s.plugins[0].config = {**s.plugins[0].config, "volume": "-1e-3"}
-    with pytest.raises(Exception, match="plugin"):
+    with pytest.raises(ValueError, match="config 'volume' must be positive, got -0.001"):
         mujoco.MjData(s.compile())
 
 
