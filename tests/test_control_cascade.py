@@ -78,7 +78,7 @@ def test_settings_from_the_spec_and_arguments(erector: tuple) -> None:
     assert CascadeController(spec, move(am), model=am).task == "pose"
     with pytest.raises(ValueError, match="mode"):
         CascadeController(spec, move(am), model=am, mode="lqr")
-    with pytest.raises(ml.SpecError):
+    with pytest.raises(ml.SpecError, match="field 'rate': expected a number > 0, got -1.0"):
         CascadeController(spec, move(am), model=am, rate=-1.0)
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from maniplab.control.errors import ControlError
 from maniplab.control.pid import PID
 
 
@@ -105,9 +106,11 @@ def test_vector_gains_broadcast_and_reset() -> None:
     assert not pid.integral.any()
 
 
-@pytest.mark.parametrize("kwargs", [{"dt": 0.0}, {"dt": 0.1, "filter_time": -1.0},
-                                    {"dt": 0.1, "limits": (1.0, -1.0)},
-                                    {"dt": 0.1, "tracking_time": 0.0}])
-def test_bad_arguments(kwargs: dict) -> None:
-    with pytest.raises(ValueError):
+@pytest.mark.parametrize(("kwargs", "message"), [
+    ({"dt": 0.0}, "dt must be > 0, got 0.0"),
+    ({"dt": 0.1, "filter_time": -1.0}, "filter_time must be >= 0, got -1.0"),
+    ({"dt": 0.1, "limits": (1.0, -1.0)}, r"limits \(1.0, -1.0\) are not ordered"),
+    ({"dt": 0.1, "tracking_time": 0.0}, "tracking_time must be > 0, got 0.0")])
+def test_bad_arguments(kwargs: dict, message: str) -> None:
+    with pytest.raises(ControlError, match=message):
         PID(1.0, 1.0, **kwargs)

@@ -75,7 +75,7 @@ def test_overrides_reach_the_control_section() -> None:
 
 
 def test_constructed_in_python_is_validated() -> None:
-    with pytest.raises(ml.SpecError):
+    with pytest.raises(ml.SpecError, match="field 'rate': expected a number > 0, got 0.0"):
         ControlSpec(rate=0.0)
-    with pytest.raises(ml.SpecError):
+    with pytest.raises(ml.SpecError, match="field 'kp': expected a number >= 0, got -1.0"):
         CartesianGains(kp=-1.0)

@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+from maniplab.control.errors import TrajectoryError
 from maniplab.control.kinematics import rotation_exp, rotation_log, rpy_to_matrix
 from maniplab.control.trajectory import (
     ArcMove,
@@ -98,7 +99,7 @@ def test_via_points_stop_at_each_pose_and_dwell() -> None:
     assert path.sample(5.0).position[1] == pytest.approx(0.5)  # middle of the second move
     np.testing.assert_allclose(path.start.position, poses[0].position)
     np.testing.assert_allclose(path.end.position, poses[2].position)
-    with pytest.raises(ValueError):
+    with pytest.raises(TrajectoryError, match="got 3 poses and 1 durations"):
         Path.via_points(poses, [1.0])
 
 
@@ -125,7 +126,7 @@ def test_segment_placement_manoeuvre() -> None:
 def test_hold_and_bad_durations() -> None:
     hold = Hold(Pose([1.0, 2.0, 3.0]), 2.0)
     assert hold.sample(1.0).position.tolist() == [1.0, 2.0, 3.0]
-    with pytest.raises(ValueError):
+    with pytest.raises(TrajectoryError, match="duration must be > 0, got 0.0"):
         MinJerkMove(*start_goal(), 0.0)
-    with pytest.raises(ValueError):
+    with pytest.raises(TrajectoryError, match="expected 3 or 6 values"):
         Pose.from_xyzrpy([1.0, 2.0])
