@@ -52,6 +52,14 @@ def test_make_video(tmp_path: Path) -> None:
     single = np.stack(list(iio.imiter(tmp_path / "erector.mp4")))
     grid = np.stack(list(iio.imiter(tmp_path / "payloads.mp4")))
     assert single.shape == (6, 96, 160, 3) and grid.shape == (6, 96, 160, 3)
+    # not blank: the arm's coloured links are drawn (the sky and floor are grey), in both
+    # panels of the grid; and the arm moves: the first and last frames differ where it is
+    colourful = lambda frames: (frames.max(axis=-1).astype(int) - frames.min(axis=-1)) > 80
+    assert colourful(single).sum(axis=(1, 2)).min() > 50
+    half = grid.shape[2] // 2
+    assert colourful(grid[:, :, :half]).sum() > 50 and colourful(grid[:, :, half:]).sum() > 50
+    moved = np.abs(single[-1].astype(int) - single[0].astype(int)).max(axis=-1) > 40
+    assert moved.sum() > 20
 
 
 def test_cylinder_pins_draws_the_pins_and_refuses_a_joint_without_one(tmp_path: Path) -> None:
