@@ -55,6 +55,25 @@ def test_without_relief_the_supply_pressure_bounds_and_a_torque_source_its_limit
                                rtol=1e-9)
 
 
+def test_a_pose_the_arm_cannot_hold_at_all_is_rated_zero_naming_the_joint() -> None:
+    """Issue 42: the branch for a pose where the arm alone is more than a joint holds had no test.
+    With the relief at 1 MPa the boom holds its own weight only near the vertical: A p_r >= g cos θ
+    m_l L/2, i.e. |cos θ| <= A p_r / (g m_l L/2) = 0.34; elsewhere the payload is 0, not negative."""
+    data = json.loads(json.dumps(BOOM))
+    data["joints"][0]["limits"] = [-1.5, 1.5]
+    data["joints"][0]["actuator"]["relief_pressure"] = 1.0e6
+    chart = load_chart(ml.ManipulatorSpec.from_dict(data), points=41)
+    cos = np.abs(np.cos(chart.q[:, 0]))
+    alone = AREA * 1.0e6 / (G * M_LINK * L / 2)  # the largest |cos θ| at which it holds itself
+    unholdable = cos > alone
+    assert unholdable.any() and (~unholdable).any()
+    np.testing.assert_array_equal(chart.payload[unholdable], 0.0)
+    assert {chart.limiting(k) for k in np.flatnonzero(unholdable)} == {"luff"}
+    expected = (AREA * 1.0e6 / (G * cos[~unholdable]) - M_LINK * L / 2) / L
+    np.testing.assert_allclose(chart.payload[~unholdable], expected, rtol=1e-9)
+    assert (chart.payload >= 0.0).all()
+
+
 def test_a_slew_about_the_vertical_is_charted_once() -> None:
     """crane3's slew turns the picture only: its grid is one value, the others get the points."""
     chart = load_chart("crane3", points=7)
