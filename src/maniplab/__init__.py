@@ -36,62 +36,131 @@ if _running_as_main() and sys.path[:1] in ([""], [os.getcwd()]):
     # imported in place of the real one. The folder holds data; code comes from installed packages.
     del sys.path[0]
 
-from importlib.metadata import PackageNotFoundError, version
+import importlib
+from typing import TYPE_CHECKING, Any
 
-from maniplab import control
-from maniplab.actuators.registry import load_plugins
-from maniplab.builtin import builtin_spec, builtin_specs, resolve_spec
-from maniplab.control import (
-    ActuatorMaps,
-    CascadeController,
-    Controller,
-    MinJerkMove,
-    Path,
-    Pose,
-    segment_placement,
-)
-from maniplab.control.linearize import linearize
-from maniplab.errors import ManiplabError, ModelError, SpecError
-from maniplab.identification import identify
-from maniplab.loadchart import LoadChart, load_chart
-from maniplab.mjcf_gen import build_model, to_mjcf
-from maniplab.model import AnalyticModel
-from maniplab.sim import (
-    InputError,
-    InstabilityError,
-    Plant,
-    PlantState,
-    PluginError,
-    Run,
-    SimulationError,
-    signals,
-    simulate,
-)
-from maniplab.sim.crossval import crossvalidate
-from maniplab.sim.runset import RunSet
-from maniplab.sim.sweep import sweep
-from maniplab.spec import (
-    Axis,
-    Body,
-    ControlSpec,
-    EndEffector,
-    Friction,
-    FrictionModel,
-    HydraulicActuator,
-    Joint,
-    JointType,
-    ManipulatorSpec,
-    PluginActuator,
-    TorqueActuator,
-    load_spec,
-)
-from maniplab.urdf import to_urdf
-from maniplab.viz import render, write_video
+# Nothing heavy is imported here: `maniplab --version` and `import maniplab` stay fast (MuJoCo,
+# scipy, sympy and the actuator stack load when a name that needs them is first used). Each
+# public name is imported from its home module on first access (PEP 562); the block below is
+# the same table written as imports, for type checkers and the API reference.
+_HOMES: dict[str, str] = {
+    "load_plugins": "maniplab.actuators.registry",
+    "builtin_spec": "maniplab.builtin", "builtin_specs": "maniplab.builtin",
+    "resolve_spec": "maniplab.builtin",
+    "ActuatorMaps": "maniplab.control", "CascadeController": "maniplab.control",
+    "Controller": "maniplab.control", "MinJerkMove": "maniplab.control",
+    "Path": "maniplab.control", "Pose": "maniplab.control",
+    "segment_placement": "maniplab.control",
+    "linearize": "maniplab.control.linearize",
+    "ManiplabError": "maniplab.errors", "ModelError": "maniplab.errors",
+    "SpecError": "maniplab.errors",
+    "identify": "maniplab.identification",
+    "LoadChart": "maniplab.loadchart", "load_chart": "maniplab.loadchart",
+    "build_model": "maniplab.mjcf_gen", "to_mjcf": "maniplab.mjcf_gen",
+    "AnalyticModel": "maniplab.model",
+    "InputError": "maniplab.sim", "InstabilityError": "maniplab.sim", "Plant": "maniplab.sim",
+    "PlantState": "maniplab.sim", "PluginError": "maniplab.sim", "Run": "maniplab.sim",
+    "SimulationError": "maniplab.sim", "signals": "maniplab.sim", "simulate": "maniplab.sim",
+    "crossvalidate": "maniplab.sim.crossval",
+    "RunSet": "maniplab.sim.runset",
+    "sweep": "maniplab.sim.sweep",
+    "Axis": "maniplab.spec", "Body": "maniplab.spec", "ControlSpec": "maniplab.spec",
+    "EndEffector": "maniplab.spec", "Friction": "maniplab.spec",
+    "FrictionModel": "maniplab.spec", "HydraulicActuator": "maniplab.spec",
+    "Joint": "maniplab.spec", "JointType": "maniplab.spec",
+    "ManipulatorSpec": "maniplab.spec", "PluginActuator": "maniplab.spec",
+    "TorqueActuator": "maniplab.spec", "load_spec": "maniplab.spec",
+    "to_urdf": "maniplab.urdf",
+    "render": "maniplab.viz", "write_video": "maniplab.viz",
+}
+"""Public name -> the module it is imported from on first use."""
 
-try:
-    __version__ = version("maniplab")
-except PackageNotFoundError:  # running from a source tree without installation
-    __version__ = "0+unknown"
+if TYPE_CHECKING:
+    from maniplab import control, viz
+    from maniplab.actuators.registry import load_plugins
+    from maniplab.builtin import builtin_spec, builtin_specs, resolve_spec
+    from maniplab.control import (
+        ActuatorMaps,
+        CascadeController,
+        Controller,
+        MinJerkMove,
+        Path,
+        Pose,
+        segment_placement,
+    )
+    from maniplab.control.linearize import linearize
+    from maniplab.errors import ManiplabError, ModelError, SpecError
+    from maniplab.identification import identify
+    from maniplab.loadchart import LoadChart, load_chart
+    from maniplab.mjcf_gen import build_model, to_mjcf
+    from maniplab.model import AnalyticModel
+    from maniplab.sim import (
+        InputError,
+        InstabilityError,
+        Plant,
+        PlantState,
+        PluginError,
+        Run,
+        SimulationError,
+        signals,
+        simulate,
+    )
+    from maniplab.sim.crossval import crossvalidate
+    from maniplab.sim.runset import RunSet
+    from maniplab.sim.sweep import sweep
+    from maniplab.spec import (
+        Axis,
+        Body,
+        ControlSpec,
+        EndEffector,
+        Friction,
+        FrictionModel,
+        HydraulicActuator,
+        Joint,
+        JointType,
+        ManipulatorSpec,
+        PluginActuator,
+        TorqueActuator,
+        load_spec,
+    )
+    from maniplab.urdf import to_urdf
+    from maniplab.viz import render, write_video
+
+    __version__: str
+
+
+def __getattr__(name: str) -> Any:
+    """A public name, imported from its home module on first use (then cached here); a
+    subpackage (``ml.viz``, ``ml.control``) likewise."""
+    if name == "__version__":
+        value: Any = _version()
+    elif name in _HOMES:
+        value = getattr(importlib.import_module(_HOMES[name]), name)
+    elif not name.startswith("_"):
+        try:
+            value = importlib.import_module(f"maniplab.{name}")
+        except ModuleNotFoundError as exc:
+            if exc.name != f"maniplab.{name}":
+                raise
+            raise AttributeError(f"module 'maniplab' has no attribute {name!r}") from None
+    else:
+        raise AttributeError(f"module 'maniplab' has no attribute {name!r}")
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *__all__})
+
+
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("maniplab")
+    except PackageNotFoundError:  # running from a source tree without installation
+        return "0+unknown"
+
 
 __all__ = [
     "ActuatorMaps",
@@ -144,5 +213,6 @@ __all__ = [
     "sweep",
     "to_mjcf",
     "to_urdf",
+    "viz",
     "write_video",
 ]

@@ -31,12 +31,12 @@ __all__ = ["EXIT_BAD_INPUT", "EXIT_INTERRUPTED", "build_parser", "main"]
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``maniplab`` command."""
-    from maniplab.model.version import package_version
+    import maniplab
 
     parser = Parser(prog="maniplab", description=(
         "Design environment for serial (hydraulic) manipulators on MuJoCo. SPEC is a YAML spec "
         "file or a built-in spec name (erector, planar2, crane3)."))
-    parser.add_argument("--version", action="version", version=f"maniplab {package_version()}")
+    parser.add_argument("--version", action="version", version=f"maniplab {maniplab.__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
     for module in (spec_commands, sim_commands, control_command, tune_command,
                    loadchart_command, identify_command, render_command, demo_command,

@@ -20,6 +20,7 @@ from maniplab.errors import ManiplabError
 from maniplab.friction.modes import FrictionMode
 from maniplab.sim import params
 from maniplab.sim.run import Run
+from maniplab.spec import model_of
 from maniplab.viz.units import display
 
 if TYPE_CHECKING:
@@ -131,13 +132,13 @@ def _plot_joint(ax, runs: Sequence[Run], labels: Sequence[str], signal: str, j: 
 
 
 def _actuator_kind(joint: Any) -> str:
-    """What drives the joint, in a few words."""
-    actuator = joint.actuator
-    if getattr(actuator, "cylinder", None) is not None:
-        return "a pinned cylinder: pA, pB"
-    if actuator.type == "hydraulic":
-        return "a lumped cylinder: ΔP"
-    return f"a {actuator.type} actuator"
+    """What the joint's actuator records instead, in a few words."""
+    try:
+        states = model_of(joint).states
+    except ManiplabError:  # a stored run's plugin that is not loaded
+        states = ()
+    shown = [display(s, joint.prismatic)[0] for s in states if s != "spool"]
+    return f"its actuator has {', '.join(shown)}" if shown else "its actuator has no state"
 
 
 def _plot_error(fig: Figure, row_axes: np.ndarray, runs: Sequence[Run],
