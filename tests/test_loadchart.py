@@ -42,6 +42,26 @@ def test_one_boom_against_its_closed_form() -> None:
     assert np.all((theta > -1.2) & (theta < 1.2))  # strictly inside the limits
 
 
+def test_a_payload_hanging_off_the_end_point_against_its_closed_form() -> None:
+    """A grapple whose centre of gravity is c = (cx, 0, cz) from the end point, in the boom's
+    frame: its weight acts at (L + cx) cos θ + cz sin θ from the pivot, so
+    A p_r = g (m_l L/2 cos θ + m ((L + cx) cos θ + cz sin θ)); its inertia plays no part. The
+    chart still places the payload at the end point. Before (issue 33) the end effector had no
+    ``com`` nor ``inertia``: a point mass at the end point."""
+    cx, cz = 0.2, -0.5
+    spec = ml.ManipulatorSpec.from_dict(BOOM).with_overrides(
+        {"end_effector.com": [cx, 0.0, cz], "end_effector.inertia": [30.0, 40.0, 20.0, 0, 0, 0]})
+    chart = load_chart(spec, points=25)
+    theta = chart.q[:, 0]
+    arm = (L + cx) * np.cos(theta) + cz * np.sin(theta)
+    expected = (AREA * RELIEF / G - M_LINK * L / 2 * np.cos(theta)) / arm
+    np.testing.assert_allclose(chart.payload, expected, rtol=1e-9)
+    np.testing.assert_allclose(chart.reach, L * np.abs(np.cos(theta)), atol=1e-12)
+    without_inertia = load_chart(spec.with_overrides({"end_effector.inertia": [0.0] * 6}),
+                                 points=25)
+    np.testing.assert_array_equal(without_inertia.payload, chart.payload)
+
+
 def test_without_relief_the_supply_pressure_bounds_and_a_torque_source_its_limit() -> None:
     data = json.loads(json.dumps(BOOM))
     data["joints"][0]["actuator"].pop("relief_pressure")

@@ -265,6 +265,19 @@ CASES = [
     ("end-effector-size-negative", "mass: 500.0", "mass: 500.0\n  size: [1, -1, 1]", None,
      "end_effector.size[1]", 27, ["> 0", "-1"]),
     ("empty-name", "name: arm", "name: ''", None, "name", 1, ["non-empty name"]),
+    # the end effector's inertia and centre of gravity (issue 33)
+    ("ee-inertia-negative", "mass: 500.0", "mass: 500.0\n  inertia: [-1, 1, 1, 0, 0, 0]", None,
+     "end_effector.inertia", 27, ["negative moment", ">= 0"]),
+    ("ee-inertia-not-psd", "mass: 500.0", "mass: 500.0\n  inertia: [1, 1, 1, 2, 0, 0]", None,
+     "end_effector.inertia", 27, ["not positive semi-definite", "-1"]),
+    ("ee-inertia-triangle", "mass: 500.0", "mass: 500.0\n  inertia: [1, 1, 3, 0, 0, 0]", None,
+     "end_effector.inertia", 27, ["triangle inequality", "I1 + I2 >= I3"]),
+    ("ee-inertia-three", "mass: 500.0", "mass: 500.0\n  inertia: [8, 12, 9]", None,
+     "end_effector.inertia", 27, ["list of 6 numbers", "[8, 12, 9]"]),
+    ("ee-inertia-word", "mass: 500.0", "mass: 500.0\n  inertia: heavy", None,
+     "end_effector.inertia", 27, ["list of 6 numbers", "'heavy'"]),
+    ("ee-com-two", "mass: 500.0", "mass: 500.0\n  com: [0, -0.4]", None,
+     "end_effector.com", 27, ["list of 3 numbers, got [0, -0.4]"]),
 ]  # fmt: skip
 
 

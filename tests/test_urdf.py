@@ -47,11 +47,19 @@ EDGES = {
 }
 
 
+# a rotator turning a grapple whose centre of gravity is off the rotator's axis, with a full
+# inertia tensor (issue 33: before, the end effector was a point mass in the URDF too)
+GRAPPLE_OFF_AXIS = ml.load_spec(ARMS / "mixed" / "forestry_grapple.yaml").with_overrides(
+    {"end_effector.com": [0.06, -0.04, -0.45], "end_effector.inertia": [8.0, 12.0, 9.0, 0.4, -0.3,
+                                                                         0.2]})
+
+
 def specs() -> dict[str, ml.ManipulatorSpec]:
     out = {name: ml.builtin_spec(name) for name in ml.builtin_specs()}
     out |= {f"arms/{p.stem}": ml.load_spec(p) for p in sorted(ARMS.glob("*.yaml"))}
+    out |= {f"arms/mixed/{p.stem}": ml.load_spec(p) for p in sorted((ARMS / "mixed").glob("*.yaml"))}
     out |= {"sample7": sample_arm(7, seed=0), "sample5": sample_arm(5, seed=3),
-            "edges": ml.ManipulatorSpec.from_dict(EDGES)}
+            "edges": ml.ManipulatorSpec.from_dict(EDGES), "grapple_off_axis": GRAPPLE_OFF_AXIS}
     return out
 
 
@@ -239,6 +247,19 @@ def test_the_payload_is_a_fixed_link_and_names_do_not_clash() -> None:
     erector = ET.fromstring(ml.to_urdf(SPECS["erector"]))
     mass = erector.find("link[@name='end_effector']/inertial/mass")
     assert mass is not None and float(mass.get("value", "nan")) == 4000.0
+
+
+def test_the_payload_link_carries_its_centre_of_gravity_and_inertia() -> None:
+    """The end effector's ``com`` and ``inertia`` are its link's inertial origin and inertia
+    (before, issue 33: a point mass at the link's origin, zero inertia)."""
+    root = ET.fromstring(ml.to_urdf(GRAPPLE_OFF_AXIS))
+    inertial = root.find("link[@name='end_effector']/inertial")
+    assert inertial is not None
+    origin, inertia = inertial.find("origin"), inertial.find("inertia")
+    assert origin is not None and inertia is not None
+    assert [float(x) for x in origin.get("xyz", "").split()] == [0.06, -0.04, -0.45]
+    keys = ("ixx", "iyy", "izz", "ixy", "ixz", "iyz")
+    assert [float(inertia.get(k, "nan")) for k in keys] == [8.0, 12.0, 9.0, 0.4, -0.3, 0.2]
 
 
 def test_unwritable_plugin_parameters_fail_naming_the_joint(monkeypatch) -> None:

@@ -4,8 +4,10 @@ At rest with the valves closed, the actuators hold the gravity load
 
     τ(q, m) = G(q) + m h(q),        h(q) = -J(q)ᵀ g
 
-G the arm's own load (no payload), J the Jacobian of the payload's position (the end-effector
-point mass), g the gravity vector and m the payload, kg: linear in m. Each actuator holds forces
+G the arm's own load (no payload), J the Jacobian of the payload's centre of gravity (the
+end-effector point, moved by ``end_effector.com`` when the spec gives one; the chart places the
+payload at the end-effector point), g the gravity vector and m the payload, kg: linear in m. The
+payload's inertia plays no part at rest. Each actuator holds forces
 within its holding range (:meth:`~maniplab.actuators.ActuatorPlugin.holding_range`: a cylinder
 ±A p_max, p_max its relief pressure or else its supply pressure; a torque source ±limit), so the
 largest payload at q is the smallest m at which one joint's load leaves its range, and that
@@ -144,15 +146,17 @@ class Statics:
             raise LoadChartError(f"{_where(spec)}no gravity (gravity: [0, 0, 0]): nothing to "
                                  "hold, no load chart")
         self.actuators = [model_of(joint) for joint in spec.joints]
-        self.model = build_model(spec.with_overrides({"end_effector.mass": 0.0}))
+        self.model = build_model(spec.with_overrides({"end_effector.mass": 0.0,
+                                                      "end_effector.inertia": [0.0] * 6}))
         self.data = mujoco.MjData(self.model)
         self.body = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, END_EFFECTOR)
+        self.com = np.asarray(spec.end_effector.com, dtype=float)
         self._jac = np.zeros((3, self.model.nv))
         self._bias = np.zeros(self.model.nv)
 
     def loads(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(G(q) without payload, h(q) per kg of payload, the payload's position): N or N·m per
-        joint, N or N·m per kg, m."""
+        """(G(q) without payload, h(q) per kg of payload, the end-effector point): N or N·m
+        per joint, N or N·m per kg, m. The payload's weight acts at its centre of gravity."""
         m, d = self.model, self.data
         d.qpos[:] = q
         d.qvel[:] = 0.0
@@ -160,7 +164,8 @@ class Statics:
         mujoco.mj_comPos(m, d)
         mujoco.mj_rne(m, d, 0, self._bias)  # at rest: the gravity load
         position = d.xpos[self.body].copy()
-        mujoco.mj_jac(m, d, self._jac, None, position, self.body)
+        cog = position + d.xmat[self.body].reshape(3, 3) @ self.com
+        mujoco.mj_jac(m, d, self._jac, None, cog, self.body)
         return self._bias.copy(), -self._jac.T @ self.gravity, position
 
     def idle_joints(self, trials: int = 4) -> frozenset[int]:

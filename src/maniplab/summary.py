@@ -27,7 +27,9 @@ def spec_table(spec: ManipulatorSpec) -> str:
         lines += ["", pump]
     lines += [
         "",
-        f"end-effector: {ee.mass:g} kg at offset {_vec(ee.offset)} m",
+        f"end-effector: {ee.mass:g} kg at offset {_vec(ee.offset)} m"
+        + (f", COG {_vec(ee.com)} m from it" if any(ee.com) else "")
+        + (f", inertia {_vec(ee.inertia)} kg·m²" if any(ee.inertia) else ""),
         f"gravity: {_vec(spec.gravity)} m/s²    total moving mass: {total:g} kg",
     ]
     return f"{spec.name}: {spec.n} joints" + (f" ({spec.source})" if spec.source else "") + \

@@ -17,7 +17,8 @@ same G(q):
   (rad/s or m/s) its ``top_speed``; ``<dynamics>`` has the viscous coefficient as ``damping`` and
   the Coulomb level as ``friction`` (when the joint has a friction model);
 - the payload as a link ``end_effector`` fixed to the last link at ``length_n * direction_n +
-  end_effector.offset`` (m), a point mass (kg; zero inertia).
+  end_effector.offset`` (m): its mass (kg) at ``end_effector.com`` from there, with
+  ``end_effector.inertia`` about it (kg·m²; none by default: a point mass).
 
 URDF requires finite numbers where the spec may have no bound: a prismatic joint without limits,
 or an actuator without a force or speed bound, gets :data:`UNBOUNDED` (the largest double) there.
@@ -237,9 +238,11 @@ def actuator_bounds(joint: Joint) -> tuple[float, float]:
 
 def _add_end_effector(robot: ET.Element, spec: ManipulatorSpec, parent: str,
                       origin: np.ndarray) -> None:
-    """The payload: a fixed link at the last body's offset plus ``end_effector.offset``."""
+    """The payload: a fixed link at the last body's offset plus ``end_effector.offset``, its
+    mass at ``end_effector.com`` from there, with ``end_effector.inertia`` about it."""
     link = ET.SubElement(robot, "link", {"name": END_EFFECTOR})
-    _inertial(link, spec.end_effector.mass, (0.0, 0.0, 0.0), (0.0,) * 6)
+    ee = spec.end_effector
+    _inertial(link, ee.mass, ee.com, ee.inertia)
     at = [float(e) + float(o) for e, o in zip(spec.end_effector.offset, origin)]
     element = ET.SubElement(robot, "joint", {"name": _fixed_joint_name(spec), "type": "fixed"})
     ET.SubElement(element, "parent", {"link": parent})

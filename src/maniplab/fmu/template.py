@@ -6,7 +6,9 @@ parameters, so the model travels as text (``resources/model.xml``): the plant's 
 precision, the plant's time step, integrator and disabled features), in which each parameter's
 value is a token the FMU replaces with the value (``%.17g``, exact for a double):
 
-- ``payload``: the end-effector body's mass, kg (the spec's ``end_effector.mass``);
+- ``payload``: the end-effector body's mass, kg (the spec's ``end_effector.mass``); its centre
+  of gravity and inertia (``end_effector.com``, ``end_effector.inertia``) stay the spec's, so a
+  payload parameter far from the spec's mass describes a body of another density;
 - ``viscous.<joint>``: the joint's damping (``joints.<joint>.friction.viscous``);
 - ``leakage.<joint>``, ``supply_pressure.<joint>``: the cylinder plugin instance's config
   (``joints.<joint>.actuator.leakage``, ``...supply_pressure``);
@@ -116,7 +118,8 @@ def _payload(root: ET.Element) -> list[Parameter]:
         return []
     mass = _token(inertial, "mass", "payload")
     return [Parameter("payload", mass, "kg", "end_effector.mass", False,
-                      "payload: the end-effector body's mass")]
+                      "payload: the end-effector body's mass (its centre of gravity and "
+                      "inertia are the spec's)")]
 
 
 def _viscous(root: ET.Element, plant: Plant) -> list[Parameter]:

@@ -9,7 +9,8 @@
 - the body's inertial frame is the spec's ``com`` with the spec's full inertia (kg·m², about the COG,
   base axes); all bodies keep the base orientation (identity quaternions);
 - the end-effector is a fixed body ``end_effector`` (no joint) on the last link at
-  ``length_n * direction_n + offset`` holding the payload as a point mass;
+  ``length_n * direction_n + offset`` holding the payload: its mass at ``com`` from there, with
+  its inertia (none by default: a point mass);
 - one actuator per joint named after it, as the joint's actuator model declares it
   (:meth:`~maniplab.actuators.ActuatorPlugin.configure_mjcf`): MuJoCo's motor for a ``torque``
   joint; for a hydraulic one an instance of the engine plugin ``maniplab.hydraulic`` with its
@@ -223,9 +224,10 @@ def compilable_inertia(inertia: tuple[float, ...]) -> tuple[float, ...]:
 
 
 def _add_end_effector(parent: mujoco.MjsBody, ee: EndEffector, at: np.ndarray) -> mujoco.MjsBody:
-    """Fixed body with the payload's point mass, at ``at + offset`` in the last link (m)."""
+    """Fixed body at the end-effector point ``at + offset`` in the last link (m), holding the
+    payload: its mass at ``com`` from the point, with its inertia (zero: a point mass)."""
     body = parent.add_body(name=names.END_EFFECTOR, pos=list(at + np.asarray(ee.offset)))
-    _set_inertial(body, Body(mass=ee.mass, com=(0.0, 0.0, 0.0), inertia=(0.0,) * 6))
+    _set_inertial(body, Body(mass=ee.mass, com=ee.com, inertia=ee.inertia))
     return body
 
 

@@ -93,7 +93,8 @@ def check_drives_mass(model: mujoco.MjModel, spec: ManipulatorSpec) -> None:
             raise ModelError(
                 f"{_where(spec)}joint {joint.name} drives no mass or inertia (M[{i}, {i}] <= "
                 f"{largest:.3g} {unit} at the home pose and {_POSES} random poses); give its "
-                f"body, or a body after it, a mass {off_axis}or an inertia about the axis"
+                f"body, a body after it or the end effector (end_effector.com, "
+                f"end_effector.inertia) a mass {off_axis}or an inertia about the axis"
             )
     _check_independent(metrics, floor, spec)
 

@@ -1,7 +1,7 @@
 """Equations of motion from the kinematics: M(q), Christoffel C(q, q̇), G(q), viscous Fv.
 
 The paper's eqs. (2)-(3) (Lagrange): M(q) = Σ_b m_b Jv_bᵀ Jv_b + Jω_bᵀ R_b I_b R_bᵀ Jω_b over the
-bodies and the payload point mass; C from the Christoffel symbols of M; G = ∂V/∂q with
+bodies and the payload (its mass at its centre of gravity, its inertia); C from the Christoffel symbols of M; G = ∂V/∂q with
 V = -Σ m g·p. Nothing here simplifies: expressions stay as built and are shrunk later by
 common-subexpression elimination.
 """
@@ -52,8 +52,14 @@ def inertia_matrix(spec: ManipulatorSpec, terms: ArmTerms, ch: Chain, q: list, e
                 for j in range(i, b + 1):
                     M[i][j] = M[i][j] + dot(ang[j], Iw)
     if terms.ee_mass != 0:
-        lin, _ = point_jacobian(ch, ch.ee_position, n - 1, engine)
+        lin, _ = point_jacobian(ch, ch.payload_cog, n - 1, engine)
         _add_gram(M, lin, terms.ee_mass, n - 1)
+    if any(terms.ee_inertia[r][c] != 0 for r in range(3) for c in range(3)):
+        ang = _body_frame_axes(spec, q, n - 1, engine)  # the payload turns with the last body
+        for i in range(n):
+            Iw = matvec(terms.ee_inertia, ang[i])
+            for j in range(i, n):
+                M[i][j] = M[i][j] + dot(ang[j], Iw)
     for i in range(n):
         for j in range(i):
             M[i][j] = M[j][i]
@@ -92,7 +98,7 @@ def gravity_vector(spec: ManipulatorSpec, terms: ArmTerms, ch: Chain, engine: En
     n = spec.n
     G = [engine.zero] * n
     points = [(body.mass, ch.cogs[b], b) for b, body in enumerate(terms.bodies)]
-    points.append((terms.ee_mass, ch.ee_position, n - 1))
+    points.append((terms.ee_mass, ch.payload_cog, n - 1))
     for mass, point, upto in points:
         if mass == 0:
             continue

@@ -7,8 +7,9 @@ dynamics, all in the body's own frame at its joint (the frame the spec writes it
 - ``first_moment`` h = m c, kg·m (c the centre of gravity);
 - ``inertia`` about the joint, I_O = I_C + m (|c|² 1 - c cᵀ), kg·m² (xx, yy, zz, xy, xz, yz);
 
-plus its ``offset`` to the next joint, m. The end-effector payload is a point mass fixed in the
-last body, so it is folded into that body's parameters. The arm also has ``gravity`` (m/s²,
+plus its ``offset`` to the next joint, m. The end-effector payload (its mass at its centre of
+gravity, ``offset + com``, with its inertia about it) is fixed in the last body, so it is folded
+into that body's parameters. The arm also has ``gravity`` (m/s²,
 base axes) and the ``end-effector`` point (m, in the last body's frame).
 
 The inverse dynamics is linear in the inertial parameters, which is why identification works on
@@ -92,6 +93,10 @@ def inertial_parameters(spec: ManipulatorSpec) -> InertialParameters:
     last_offset = _offset(last)
     point = [_Term(ee.offset[k] + last_offset[k].value,
                    ee.offset[k] != 0.0 or last_offset[k].structural) for k in range(3)]
+    cog = [_Term(ee.offset[k] + ee.com[k] + last_offset[k].value,
+                 ee.offset[k] != 0.0 or ee.com[k] != 0.0 or last_offset[k].structural)
+           for k in range(3)]
+    payload = ee.inertia_tensor
     bodies = []
     for j, joint in enumerate(spec.joints):
         masses = []
@@ -101,8 +106,8 @@ def inertial_parameters(spec: ManipulatorSpec) -> InertialParameters:
             centre = [_Term(float(c), float(c) != 0.0) for c in body.com]
             masses.append((_Term(body.mass, body.mass != 0.0), centre,
                            inertia_matrix(body.inertia)))
-        if j == n - 1 and ee.mass != 0.0:
-            masses.append((_Term(ee.mass, True), point, np.zeros((3, 3))))
+        if j == n - 1 and (ee.mass != 0.0 or np.any(payload != 0.0)):
+            masses.append((_Term(ee.mass, ee.mass != 0.0), cog, payload))
         bodies.append(_block(joint.name, masses, _offset(joint), payload=j == n - 1))
     gravity = tuple(Slot(float(g), g != 0.0, f"gravity {a}, m/s^2")
                     for a, g in zip(AXES, spec.gravity))

@@ -26,7 +26,8 @@ class Chain:
         positions: origin of body j's frame (after joint j's motion), m, n vectors.
         cogs: body j's centre of gravity, m, n vectors.
         ee_rotation: orientation of the end-effector frame (that of the last frame).
-        ee_position: the end-effector point (payload), m.
+        ee_position: the end-effector point, m.
+        payload_cog: the payload's centre of gravity (``com`` from the end-effector point), m.
         prismatic: True for a prismatic joint, n flags.
     """
 
@@ -37,6 +38,7 @@ class Chain:
     cogs: list[Vec]
     ee_rotation: Mat
     ee_position: Vec
+    payload_cog: Vec
     prismatic: list[bool]
 
 
@@ -96,7 +98,7 @@ def chain(spec: ManipulatorSpec, terms: ArmTerms, q: list[Expr], engine: Engine)
     z, o = engine.zero, engine.one
     rot: Mat = [[o, z, z], [z, o, z], [z, z, o]]
     pos: Vec = [z, z, z]
-    out = Chain([], [], [], [], [], rot, pos, [])
+    out = Chain([], [], [], [], [], rot, pos, pos, [])
     for j, joint in enumerate(spec.joints):
         axis_index = "xyz".index(joint.axis.value)
         axis = [rot[r][axis_index] for r in range(3)]  # R_j a_j: a column of R_j
@@ -114,6 +116,7 @@ def chain(spec: ManipulatorSpec, terms: ArmTerms, q: list[Expr], engine: Engine)
         pos = add(pos, matvec(rot, body.offset))
     out.ee_rotation = rot
     out.ee_position = add(pos, matvec(rot, terms.ee_offset))
+    out.payload_cog = add(out.ee_position, matvec(rot, terms.ee_com))
     return out
 
 

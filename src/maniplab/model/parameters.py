@@ -66,7 +66,9 @@ class ArmTerms:
     Attributes:
         bodies: one per joint (zeros where the joint has no body).
         ee_mass: payload mass, kg.
-        ee_offset: payload position in the last frame, m.
+        ee_offset: the end-effector point in the last frame, m.
+        ee_com: the payload's centre of gravity relative to that point, m (numbers).
+        ee_inertia: the payload's inertia about its centre of gravity, kg·m², 3x3 (numbers).
         gravity: m/s², base axes.
         viscous: viscous friction per joint.
         symbols: the named parameter symbols with their spec values (symbolic groups).
@@ -75,6 +77,8 @@ class ArmTerms:
     bodies: list[BodyTerms]
     ee_mass: Expr
     ee_offset: Vec
+    ee_com: Vec
+    ee_inertia: Mat
     gravity: Vec
     viscous: list[Expr]
     symbols: dict[Any, float] = dataclasses.field(default_factory=dict)
@@ -125,6 +129,8 @@ def arm_terms(
         ee_mass=make("payload", "me", ee.mass),
         ee_offset=[make("offset", f"e{a}", v)
                    for a, v in zip(_AXES, ee.offset)],
+        ee_com=[make("", "", v) for v in ee.com],
+        ee_inertia=[[make("", "", v) for v in row] for row in ee.inertia_tensor],
         gravity=[make("gravity", f"g{a}", v)
                  for a, v in zip(_AXES, spec.gravity)],
         viscous=[make("friction", f"fv{j + 1}", joint.friction.viscous)
@@ -196,4 +202,6 @@ def structure_key(spec: ManipulatorSpec) -> str:
         rows.append(row)
     ee = spec.end_effector
     rows.append([nz([ee.mass]), nz(ee.offset), nz(spec.gravity)])
+    if any(ee.com) or any(ee.inertia):  # (kept out of the rows of arms without them: same key)
+        rows.append(["payload", nz(ee.com), nz(ee.inertia)])
     return hashlib.sha256(json.dumps(rows).encode()).hexdigest()

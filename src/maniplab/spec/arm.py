@@ -275,11 +275,19 @@ class Joint:
 
 @validated
 class EndEffector:
-    """Point mass (the payload) at the frame after the last body, displaced by ``offset``.
+    """The payload (a tool, a grapple, a load), fixed to the frame after the last body at the
+    end-effector point ``offset``: a point mass there, or a rigid body with its own centre of
+    gravity and inertia.
 
     Attributes:
         mass: kg.
-        offset: position of the payload in the last frame, m, shape (3,).
+        offset: the end-effector point (the tool point the pose and the Jacobian follow) in the
+            frame after the last body, m, shape (3,).
+        com: the payload's centre of gravity relative to the end-effector point, in the same
+            axes as ``offset``, m, shape (3,) (default: at the point).
+        inertia: the payload's inertia about its centre of gravity, in those axes,
+            [Ixx, Iyy, Izz, Ixy, Ixz, Iyz], kg·m² (default: none, a point mass). A rigid body's:
+            positive semi-definite, I1 + I2 >= I3.
         size: full edge lengths of the payload box drawn in the MJCF (visual only), m, or None
             for a cube of concrete (2400 kg/m³) of the payload's mass.
     """
@@ -288,7 +296,20 @@ class EndEffector:
 
     mass: Mass = 0.0
     offset: Vec3 = (0.0, 0.0, 0.0)
+    com: Vec3 = (0.0, 0.0, 0.0)
+    inertia: Inertia = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     size: Annotated[tuple[Positive, Positive, Positive], BeforeValidator(sequence)] | None = None
+
+    @property
+    def cog(self) -> np.ndarray:
+        """The payload's centre of gravity in the frame after the last body, ``offset + com``,
+        m, shape (3,)."""
+        return np.asarray(self.offset, dtype=float) + np.asarray(self.com, dtype=float)
+
+    @property
+    def inertia_tensor(self) -> np.ndarray:
+        """The payload's inertia about its centre of gravity, 3x3, kg·m²."""
+        return inertia_matrix(self.inertia)
 
     @property
     def box_size(self) -> np.ndarray:
