@@ -44,9 +44,13 @@ CASES = {
     "electric2": (ARMS / "electric2.yaml", [-0.5, 1.0], (0.1, 0.0, 0.1), 0.8, 300),
     "loader-crane": (ARMS / "loader_crane.yaml", [0.0, -0.6, 1.2, 0.5], (0.1, 0.05, 0.05), 0.4,
                      300),
+    # pinned cylinders: their drive in C since issue 36 (slew lumped, lift and tilt pinned)
+    "patu655": ("patu655", [0.0, -0.3, 1.2], (0.1, 0.05, -0.05), 0.6, 300),
+    "knuckle-crane": (ARMS / "knuckle_crane.yaml", [-1.29, -0.44, 1.48, 0.77, 0.0],
+                      (0.1, 0.1, 0.05), 0.6, 300),
 }
 
-State = tuple[float, np.ndarray, np.ndarray, np.ndarray]
+State = tuple[float, np.ndarray, np.ndarray, dict[str, np.ndarray]]
 
 
 def controller_for(name: str, mode: str, **settings: object
@@ -75,9 +79,15 @@ def held_against_gravity(controller: CascadeController, q0: list[float]
     return m, d
 
 
-def pressures(m: mujoco.MjModel, d: mujoco.MjData, n: int) -> np.ndarray:
-    return np.array([d.act[m.actuator_actadr[j]] if m.actuator_actnum[j] else np.nan
-                     for j in range(n)])
+def pressures(m: mujoco.MjModel, d: mujoco.MjData, spec: ml.ManipulatorSpec
+              ) -> dict[str, np.ndarray]:
+    """The actuators' states by name (dP of a lumped cylinder, pA and pB of a pinned one...),
+    each (n,), NaN at joints without that state."""
+    out: dict[str, np.ndarray] = {}
+    for j, joint in enumerate(spec.joints):
+        for i, name in enumerate(model_of(joint).states):
+            out.setdefault(name, np.full(spec.n, np.nan))[j] = d.act[m.actuator_actadr[j] + i]
+    return out
 
 
 def closed_loop(controller: CascadeController, q0: list[float], samples: int) -> list[State]:
@@ -93,7 +103,7 @@ def closed_loop(controller: CascadeController, q0: list[float], samples: int) ->
     states = []
     for t in times:
         d.time = t
-        states.append((float(t), d.qpos.copy(), d.qvel.copy(), pressures(m, d, controller.n)))
+        states.append((float(t), d.qpos.copy(), d.qvel.copy(), pressures(m, d, controller.spec)))
         status = function(native.context, t, m._address, d._address,
                           u.ctypes.data_as(ctypes.POINTER(ctypes.c_double)))
         assert status == 0, native.message()
@@ -117,8 +127,8 @@ def assert_same(got: dict[str, np.ndarray], want: dict[str, np.ndarray]) -> None
 
 def reference_of(controller: CascadeController, states: list[State]) -> ReferenceCascade:
     reference = ReferenceCascade(controller)
-    for t, q, qd, dP in states:
-        reference.step(t, q, qd, dP=dP)
+    for t, q, qd, actuators in states:
+        reference.step(t, q, qd, **actuators)
     return reference
 
 
@@ -165,7 +175,7 @@ def test_the_python_path_runs_the_same_code_bit_for_bit(mode: str) -> None:
     native, q0, samples = controller_for("excavator", mode)
     states = closed_loop(native, q0, samples)
     stepped, _, _ = controller_for("excavator", mode)
-    commands = [stepped.step(t, q, qd, dP=dP) for t, q, qd, dP in states]
+    commands = [stepped.step(t, q, qd, **actuators) for t, q, qd, actuators in states]
     for name, values in native.signals().items():
         np.testing.assert_array_equal(stepped.signals()[name], values, err_msg=name)
     np.testing.assert_array_equal(np.array(commands), native.signals()["cmd"])
@@ -176,10 +186,10 @@ def test_native_samples_follow_python_ones_in_the_log() -> None:
     controller, q0, _ = controller_for("crane3", "cascade")
     twin, _, _ = controller_for("crane3", "cascade")
     m, d = held_against_gravity(controller, q0)
-    dP = pressures(m, d, 3)
+    actuators = pressures(m, d, controller.spec)
     for k in range(3):  # three samples in Python, then three native ones
         for c in (controller, twin):
-            c(k * controller.dt, {"q": d.qpos, "qd": d.qvel, "dP": dP})
+            c(k * controller.dt, {"q": d.qpos, "qd": d.qvel, **actuators})
     times = np.arange(3, 6) * controller.dt
     native = controller.native(None, times)
     assert native is not None
@@ -189,7 +199,7 @@ def test_native_samples_follow_python_ones_in_the_log() -> None:
         d.time = t
         assert function(native.context, t, m._address, d._address,
                         u.ctypes.data_as(ctypes.POINTER(ctypes.c_double))) == 0
-        np.testing.assert_array_equal(u, twin(t, {"q": d.qpos, "qd": d.qvel, "dP": dP}))
+        np.testing.assert_array_equal(u, twin(t, {"q": d.qpos, "qd": d.qvel, **actuators}))
     np.testing.assert_array_equal(controller.times, twin.times)
     at = controller.signals_at(np.array([-1.0, 0.0, 4.5 * controller.dt, 10.0]))
     assert np.isnan(at["ctrl.cmd"][0]).all()
@@ -314,29 +324,28 @@ def test_a_model_without_compiled_kernels_is_refused_in_one_line() -> None:
     assert "\n" not in str(caught.value)
 
 
-def test_a_python_drive_reads_its_plugin_states_from_the_plants_state(monkeypatch) -> None:
-    """Called with a plant's state, the cascade hands a Python drive (the pinned cylinders')
-    the states it needs by name, as the plant holds them (a state the plant has is never read as
-    zeros)."""
-    from maniplab.actuators.hydraulic.pinned_drive import ChamberDrive
-
+def test_a_pinned_cylinders_drive_reads_pA_and_pB_from_the_plants_state() -> None:
+    """Called with a plant's state, the compiled cascade's pinned-cylinder drive gets pA and pB as
+    the plant holds them: its command equals the Python drive's (ChamberDrive.command) for the
+    same desired forces, and it is not what zero pressures would give."""
     spec = ml.builtin_spec("patu655")
     plant = ml.Plant(spec)
     plant.set_state(q=[0.2, -0.4, 1.0])
     plant.balance_pressures()
-    seen: list[dict[str, np.ndarray]] = []
-    command = ChamberDrive.command
-
-    def spy(self, force, q, qd, qd_ref, states):  # type: ignore[no-untyped-def]
-        seen.append({k: np.array(v) for k, v in states.items()})
-        return command(self, force, q, qd, qd_ref, states)
-
-    monkeypatch.setattr(ChamberDrive, "command", spy)
     model = ml.AnalyticModel(spec)
     controller = CascadeController(spec, Hold(Pose.from_matrix(model.fk(plant.state().q)), 1.0),
                                    model=model)
-    controller(0.0, plant.state())
+    assert not controller._python  # every drive compiled
     state = plant.state()
-    assert seen and seen[0]["pA"] == pytest.approx(state["pA"][1:], rel=1e-12)
-    assert seen[0]["pB"] == pytest.approx(state["pB"][1:], rel=1e-12)
-    assert np.all(seen[0]["pA"] > 1e6)
+    cmd = controller(0.0, state)
+    tau = controller.signals()["tau_d"][0]
+    drive = next(d for d in controller.drives if "pA" in d.needs)
+    fresh = type(drive)(drive.cylinders, drive.joints, dt=controller.dt,
+                        settings=controller.gains)
+    j = drive.joints
+    qd_ref = np.zeros(spec.n)
+    want = fresh.command(tau[j], state.q[j], state.qd[j], qd_ref[j],
+                         {"pA": state["pA"][j], "pB": state["pB"][j]})
+    np.testing.assert_allclose(cmd[j], want, rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(controller.signals()["pL_d"][0][j], fresh.log["pL_d"], rtol=1e-12)
+    assert np.all(state["pA"][j] > 1e6)

@@ -32,7 +32,8 @@ struct ml_cascade {
   /* scratch */
   ml_dls dls;
   double H[16], E[9], bias_acc[6];
-  double *J, *Jp, *Jm, *qshift, *Mb, *rhs, *sol, *inv_supply, *dP, *u, *err, *rate, *spare_row;
+  double *J, *Jp, *Jm, *qshift, *Mb, *rhs, *sol, *inv_supply, *dP, *pB, *u, *err, *rate,
+      *spare_row;
 };
 
 int ml_cascade_sizes(int* out4) {
@@ -65,8 +66,9 @@ static const double* keep(carver* k, const double* from, int count) {
   return to;
 }
 
-/* A copy of `count` ints, in as many doubles as they take. */
+/* A copy of `count` ints, in as many doubles as they take (NULL for NULL). */
 static const int* keep_ints(carver* k, const int* from, int count) {
+  if (from == NULL) return NULL;
   int* to = (int*)carve(k, (count * (int)sizeof(int) + (int)sizeof(double) - 1) /
                                (int)sizeof(double));
   if (to) memcpy(to, from, (size_t)count * sizeof(int));
@@ -106,6 +108,11 @@ static int layout(ml_cascade* c, const ml_cascade_config* config, double* pool) 
   g->leakage = keep(&k, g->leakage, n);
   g->pressure_kp = keep(&k, g->pressure_kp, n);
   g->pressure_ki = keep(&k, g->pressure_ki, n);
+  /* ml_chambers is 16 doubles (no padding): kept as doubles */
+  g->chambers = (const ml_chambers*)keep(&k, (const double*)g->chambers,
+                                         n * (int)(sizeof(ml_chambers) / sizeof(double)));
+  g->geometry = keep(&k, g->geometry, 3 * n);
+  g->prismatic = keep_ints(&k, g->prismatic, n);
   c->outer.integral = carve(&k, m);
   c->outer.rate = carve(&k, m);
   c->joint.integral = carve(&k, n);
@@ -122,6 +129,7 @@ static int layout(ml_cascade* c, const ml_cascade_config* config, double* pool) 
   c->sol = carve(&k, 3 * n);
   c->inv_supply = carve(&k, n);
   c->dP = carve(&k, n);
+  c->pB = carve(&k, n);
   c->u = carve(&k, n > 6 ? n : 6);  /* the outer loop's too (rows <= 6) */
   c->err = carve(&k, n);
   c->rate = carve(&k, n);
@@ -151,6 +159,10 @@ ml_cascade* ml_cascade_new(const ml_cascade_config* config) {
   layout(c, config, c->pool);
   const ml_cascade_config* g = &c->cfg;
   for (int j = 0; j < n; j++) {
+    if (g->drive[j] == ML_DRIVE_CHAMBERS && (!g->chambers || !g->geometry || !g->prismatic)) {
+      ml_cascade_free(c);
+      return NULL;
+    }
     c->python_drives += g->drive[j] == ML_DRIVE_PYTHON;
     c->inv_supply[j] = g->drive[j] == ML_DRIVE_VALVE ? 1.0 / g->supply[j] : 0.0;
   }
@@ -287,19 +299,72 @@ static void bias_acceleration(ml_cascade* c, const double* q, const double* qd, 
 
 /* The valve's drive at joint j (PressureDrive.command): dP_d = tau / A, the pressure loop's flow
    command phi, then G2. The loop's rate filter starts at its second sample. */
+/* The pressure loop at joint j (PressureLoop.flow): the command for the desired pressure p_d at
+   the measured p, with the loop's "area" (A, or a pinned cylinder's k_s), speed and reference
+   speed, "capacitance" and leakage. The rate filter starts at the loop's second sample. */
+static double pressure_loop(ml_cascade* c, int j, double p_d, double p, double area,
+                            double speed, double speed_ref, double capacitance,
+                            double leakage) {
+  const ml_cascade_config* g = &c->cfg;
+  if (c->p_started) {
+    c->p_rate[j] += g->rate_alpha * ((p_d - c->p_prev[j]) / g->dt - c->p_rate[j]);
+  }
+  c->p_prev[j] = p_d;
+  double error = p_d - p;
+  double flow = area * speed + leakage * p + g->pressure_kp[j] * error + c->p_integral[j];
+  c->p_integral[j] = c->p_integral[j] + g->dt * g->pressure_ki[j] * error;
+  if (g->compressibility) flow += capacitance * c->p_rate[j];
+  if (g->speed_gain != 0.0) flow += g->speed_gain * area * (speed_ref - speed);
+  return flow;
+}
+
+/* s(q) and r(q) = ds/dq of a pinned cylinder from its pins' closed form (PinGeometry). */
+static void pin_length(const double* geo, int prismatic, double q, double* s, double* r) {
+  if (prismatic) {
+    double x = q + geo[1];
+    *s = sqrt(geo[0] + x * x);
+    *r = x / *s;
+    return;
+  }
+  double x = q - geo[2], s2 = geo[0] - 2.0 * geo[1] * cos(x);
+  *s = sqrt(s2 > 0.0 ? s2 : 0.0);
+  *r = geo[1] * sin(x) / *s;
+}
+
+/* A pinned cylinder's drive at joint j (ChamberDrive.command): F_d = tau / r(q), the desired load
+   pressure p_Ld = F_d / A_A against p_L = pA - alpha pB, the load-pressure loop with k_s in place
+   of the area, and the four-edge valve inverted for the rate it asks (each root floored at
+   min_root sqrt(Ps - Pt)). */
+static double chamber_drive(ml_cascade* c, int j, double tau, double q, double qd, double qd_ref,
+                            double pa, double pb, double* p_d_out) {
+  const ml_cascade_config* g = &c->cfg;
+  const ml_chambers* law = &g->chambers[j];
+  double s, r, va, vb, qa, qb;
+  pin_length(g->geometry + 3 * j, g->prismatic[j], q, &s, &r);
+  ml_chamber_volumes(law, s, &va, &vb);
+  double ratio = law->area_b / law->area_a, e = law->bulk_modulus;
+  double stiff = e * (law->area_a / va + ratio * law->area_b / vb);
+  double leak = e * (1.0 / va + ratio / vb) * law->leakage * (pa - pb);
+  double p_d = tau / (r * law->area_a);
+  double need = pressure_loop(c, j, p_d, pa - ratio * pb, stiff, r * qd, r * qd_ref, 1.0, 0.0)
+                + leak;
+  double sign = need >= 0.0 ? 1.0 : -1.0;
+  ml_valve_edges(law, sign, pa, pb, &qa, &qb);
+  double floor = g->min_root * sqrt(law->supply - law->tank);
+  double fa = sign * qa, fb = -sign * qb;
+  qa = sign * (fa > law->gain_a * floor ? fa : law->gain_a * floor);
+  qb = -sign * (fb > law->gain_b * floor ? fb : law->gain_b * floor);
+  double gain = e * (qa / va - ratio * qb / vb) * sign;
+  *p_d_out = p_d;
+  return clip(need / gain * g->limit[j], -g->limit[j], g->limit[j]);
+}
+
 static double valve_drive(ml_cascade* c, int j, double tau, double qd, double qd_ref, double dP,
                           double* dP_d_out, double* phi_out) {
   const ml_cascade_config* g = &c->cfg;
   double dP_d = tau / g->area[j];
-  if (c->p_started) {
-    c->p_rate[j] += g->rate_alpha * ((dP_d - c->p_prev[j]) / g->dt - c->p_rate[j]);
-  }
-  c->p_prev[j] = dP_d;
-  double error = dP_d - dP;
-  double phi = g->area[j] * qd + g->leakage[j] * dP + g->pressure_kp[j] * error + c->p_integral[j];
-  c->p_integral[j] = c->p_integral[j] + g->dt * g->pressure_ki[j] * error;
-  if (g->compressibility) phi += g->capacitance[j] * c->p_rate[j];
-  if (g->speed_gain != 0.0) phi += g->speed_gain * g->area[j] * (qd_ref - qd);
+  double phi = pressure_loop(c, j, dP_d, dP, g->area[j], qd, qd_ref, g->capacitance[j],
+                             g->leakage[j]);
   *dP_d_out = dP_d;
   *phi_out = phi;
   return ml_valve_current_law(phi, dP, g->valve_gain[j], c->inv_supply[j], g->limit[j],
@@ -311,8 +376,8 @@ typedef struct {
 } row_view;
 
 static void cascade_mode(ml_cascade* c, const double* ref, const double* q, const double* qd,
-                         const double* dP, const double* e, const double* de, const double* Jqd,
-                         double* cmd, double* aux, row_view row) {
+                         const double* dP, const double* pB, const double* e, const double* de,
+                         const double* Jqd, double* cmd, double* aux, row_view row) {
   const ml_cascade_config* g = &c->cfg;
   int n = g->n, m = g->rows;
   double* rhs = c->rhs;
@@ -354,6 +419,10 @@ static void cascade_mode(ml_cascade* c, const double* ref, const double* q, cons
       case ML_DRIVE_FORCE:
         cmd[j] = clip(row.tau[j], -g->limit[j], g->limit[j]);
         break;
+      case ML_DRIVE_CHAMBERS:
+        cmd[j] = chamber_drive(c, j, row.tau[j], q[j], qd[j], qd_ref, dP[j], pB ? pB[j] : 0.0,
+                               row.dP_d + j);
+        break;
       default:
         cmd[j] = NAN;
     }
@@ -388,6 +457,7 @@ static void pid_mode(ml_cascade* c, const double* q, const double* qd, const dou
     double speed = c->u[j];
     switch (g->drive[j]) {
       case ML_DRIVE_VALVE: /* i_v = v A / C, the no-load inversion */
+      case ML_DRIVE_CHAMBERS:  /* its no-load inversion's A and C (ChamberDrive.compiled) */
         cmd[j] = clip(speed * g->area[j] / g->valve_gain[j], -g->limit[j], g->limit[j]);
         break;
       case ML_DRIVE_FORCE: {
@@ -410,7 +480,8 @@ static void pid_mode(ml_cascade* c, const double* q, const double* qd, const dou
 /* --- the sample ------------------------------------------------------------------------------- */
 
 int ml_cascade_sample(ml_cascade* c, double t, const double* ref, const double* q,
-                      const double* qd, const double* dP, double* cmd, double* aux) {
+                      const double* qd, const double* dP, const double* pB, double* cmd,
+                      double* aux) {
   const ml_cascade_config* g = &c->cfg;
   int n = g->n, m = g->rows;
   ml_cascade_log* log = c->log;
@@ -473,7 +544,7 @@ int ml_cascade_sample(ml_cascade* c, double t, const double* ref, const double* 
   if (g->mode == ML_MODE_PID) {
     pid_mode(c, q, qd, e, de, cmd, aux, row);
   } else {
-    cascade_mode(c, ref, q, qd, dP, e, de, Jqd, cmd, aux, row);
+    cascade_mode(c, ref, q, qd, dP, pB, e, de, Jqd, cmd, aux, row);
   }
   return status;
 }
@@ -506,11 +577,14 @@ int ml_cascade_control(void* context, double t, const mjModel* m, const mjData* 
   while (k < run->count && run->times[k] < t - tol) k++;
   if (k >= run->count || run->times[k] > t + tol) return run->status = ML_CASCADE_NO_SAMPLE;
   run->next = k + 1;
-  for (int j = 0; j < n; j++) {
-    c->dP[j] = c->cfg.drive[j] == ML_DRIVE_VALVE ? d->act[m->actuator_actadr[j]] : 0.0;
+  for (int j = 0; j < n; j++) {  /* a lumped cylinder's dP, a pinned one's pA and pB */
+    int drive = c->cfg.drive[j], adr = m->actuator_actadr[j];
+    int pressures = drive == ML_DRIVE_VALVE || drive == ML_DRIVE_CHAMBERS;
+    c->dP[j] = pressures ? d->act[adr] : 0.0;
+    c->pB[j] = drive == ML_DRIVE_CHAMBERS ? d->act[adr + 1] : 0.0;
   }
-  int status = ml_cascade_sample(c, t, run->refs + ML_REF_SIZE * k, d->qpos, d->qvel, c->dP, u,
-                                 NULL);
+  int status = ml_cascade_sample(c, t, run->refs + ML_REF_SIZE * k, d->qpos, d->qvel, c->dP,
+                                 c->pB, u, NULL);
   if (status) return run->status = status;
   ml_cascade_commit(c, u);
   for (int j = 0; j < n; j++) {

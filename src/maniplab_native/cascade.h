@@ -13,7 +13,8 @@
       qdd = J+ (a_x - Jdot qd) by damped least squares (linalg.h), Jdot qd the central difference
       of J along qd, minus null_damping times the joint speed's null-space part on a redundant
       arm; G1: tau = M qdd + C qd + G + Fv qd (+ Fc tanh(qd_ref / vs)), qd_ref = J+ twist_d;
-      then each joint's drive: a valve's pressure loop and G2 (valve.h), or a force source's
+      then each joint's drive: a valve's pressure loop and G2 (valve.h), a pinned cylinder's
+      load-pressure loop and four-edge valve inversion (chambers.h), or a force source's
       clip(tau);
       pid: a joint PID on (J+ e, J+ de) gives joint speeds; a valve gets i_v = v A / C, a force
       source a velocity loop's force M_jj k_v (v - qd).
@@ -27,6 +28,8 @@
 
 #include <mujoco/mujoco.h>
 
+#include "chambers.h"
+
 /* A kernel of the arm's compiled analytic model (maniplab.model.tape): out from the model's
    parameter vector p and the state (q, qd, qdd; unused ones may be NULL). */
 typedef void (*ml_kernel_fn)(const double* p, const double* q, const double* qd,
@@ -38,7 +41,9 @@ enum { ML_MODE_CASCADE = 0, ML_MODE_PID = 1 };
 enum {
   ML_DRIVE_VALVE = 0,  /* a hydraulic cylinder: pressure loop and G2 (PressureDrive) */
   ML_DRIVE_FORCE = 1,  /* a force/torque source: the force, clipped (its steady state) */
-  ML_DRIVE_PYTHON = 2  /* a drive written in Python: finished by the caller */
+  ML_DRIVE_PYTHON = 2, /* a drive written in Python: finished by the caller */
+  ML_DRIVE_CHAMBERS = 3 /* a pinned two-chamber cylinder: its load-pressure loop and the inversion
+                           of its four-edge valve (ChamberDrive) */
 };
 
 /* The reference at one sample, ML_REF_SIZE doubles: p_d, R_d (row-major), twist_d, accel_d. */
@@ -99,6 +104,12 @@ typedef struct {
   double rate_alpha;            /* the dP_d rate filter: h / (T + h) */
   double speed_gain;            /* k_v of the pressure loop's speed term */
   int compressibility;          /* include (V/E) d(dP_d)/dt */
+  const ml_chambers* chambers;  /* a pinned cylinder's law (n; used at ML_DRIVE_CHAMBERS), or
+                                   NULL when no joint has one */
+  const double* geometry;       /* its pins' closed form (n x 3): K, rho, phi (rotational,
+                                   s^2 = K - 2 rho cos(q - phi)) or w^2, b, 0 (prismatic,
+                                   s^2 = w^2 + (q + b)^2); or NULL likewise */
+  const int* prismatic;         /* 1: the joint slides (n), or NULL likewise */
 } ml_cascade_config;
 
 /* The controller's log, one row per sample, in the caller's buffers (rows: capacity). */
@@ -139,9 +150,13 @@ void ml_cascade_reset(ml_cascade* c);
 void ml_cascade_set_log(ml_cascade* c, ml_cascade_log* log);
 
 /* One sample up to the commands: cmd (n; NaN at Python drives), the row's signals but the
-   command; aux (ML_AUX_SIZE x n, or NULL). Returns ML_CASCADE_OK or ML_CASCADE_LOG_FULL. */
+   command; aux (ML_AUX_SIZE x n, or NULL). The pressures (n): dP of a lumped cylinder, and at a
+   pinned one its cap side in dP and its rod side in pB (pB may be NULL when no joint has one).
+   A pinned cylinder's desired load pressure goes to the row's dP_d. Returns ML_CASCADE_OK or
+   ML_CASCADE_LOG_FULL. */
 int ml_cascade_sample(ml_cascade* c, double t, const double* ref, const double* q,
-                      const double* qd, const double* dP, double* cmd, double* aux);
+                      const double* qd, const double* dP, const double* pB, double* cmd,
+                      double* aux);
 
 /* Finish the sample with the whole command (n): the saturation flag the outer integrator reads
    next sample, and the row's command; the row counts from now on. */

@@ -45,6 +45,7 @@ from maniplab.control.native import (
     AUX_QD_REF,
     AUX_SPEED,
     AUX_TAU,
+    DRIVES,
     REF_SIZE,
     CompiledCascade,
     NativeController,
@@ -72,7 +73,7 @@ LOG_SIGNALS: dict[str, tuple[str, str]] = {
 """The cascade's own log; the drives add theirs (e.g. the hydraulic ``dP_d`` and ``phi``)."""
 
 _BUFFERS = {"x_d": "x_d", "x": "x", "e_x": "e", "a_x": "a_x", "qdd_d": "qdd", "tau_d": "tau",
-            "dP_d": "dP_d", "phi": "phi", "cmd": "cmd"}
+            "dP_d": "dP_d", "pL_d": "dP_d", "phi": "phi", "cmd": "cmd"}
 """Signals the compiled sample logs -> its log buffer (:data:`~maniplab.control.native.LOG_FIELDS`)."""
 
 
@@ -163,6 +164,9 @@ class CascadeController:
         self.weights = (np.where(finite, vmax / top, 1.0) if g.capacity_weighting else None)
         self._c = CompiledCascade(self)
         self._python = self._c.python
+        self._pinned = self._c.kinds == DRIVES["chambers"]
+        """Joints whose drive is a pinned cylinder's (its desired load pressure in the log's
+        dP_d buffer)."""
         self._extra = [k for k in self.log_signals if k not in _BUFFERS]
         """Signals only Python drives log (the C log has the others)."""
 
@@ -227,7 +231,11 @@ class CascadeController:
         dP = states.get("dP")
         if dP is None and "dP" in self._needs:
             raise TypeError("the controller's hydraulic joints need the state dP")
-        cmd = self._c.sample(t, ref, q, qd, dP)
+        pB = None
+        if self._pinned.any():  # a pinned cylinder's cap side goes where a lumped one's ΔP does
+            dP = np.where(self._pinned, states["pA"], 0.0 if dP is None else dP)
+            pB = np.where(self._pinned, states["pB"], 0.0)
+        cmd = self._c.sample(t, ref, q, qd, dP, pB)
         if not self._python:
             self._c.commit(cmd)
             return cmd
@@ -314,6 +322,10 @@ class CascadeController:
                 rows = self._c.rows_of(_BUFFERS[k])
                 out[k] = np.array([np.concatenate([r[:3], matrix_to_rpy(r[3:].reshape(3, 3))])
                                    for r in rows]).reshape(len(rows), 6)
+            elif k in ("dP_d", "pL_d"):  # one buffer: ΔP_d at lumped joints, p_Ld at pinned
+                rows = self._c.rows_of("dP_d")
+                rows[:, self._pinned if k == "dP_d" else ~self._pinned] = np.nan
+                out[k] = rows
             elif k in _BUFFERS:
                 out[k] = self._c.rows_of(_BUFFERS[k])
             else:

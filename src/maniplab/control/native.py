@@ -19,13 +19,14 @@ from typing import Any
 import numpy as np
 
 from maniplab.actuators import ForceDrive
+from maniplab.actuators.hydraulic import chambers
 from maniplab.clib import Functions
 from maniplab.control.errors import ControlError
 
 MODES = {"cascade": 0, "pid": 1}
 """``ML_MODE_*``."""
 
-DRIVES = {"valve": 0, "force": 1}
+DRIVES = {"valve": 0, "force": 1, "chambers": 3}
 """``ML_DRIVE_*`` of the compiled drives' kinds (:class:`~maniplab.actuators.drive.CompiledDrive`)."""
 
 PYTHON = 2
@@ -72,7 +73,8 @@ class Config(ctypes.Structure):
         ("supply", c_void_p), ("orifice", c_void_p), ("capacitance", c_void_p),
         ("leakage", c_void_p), ("pressure_kp", c_void_p), ("pressure_ki", c_void_p),
         ("min_root", c_double), ("rate_alpha", c_double), ("speed_gain", c_double),
-        ("compressibility", c_int),
+        ("compressibility", c_int), ("chambers", c_void_p), ("geometry", c_void_p),
+        ("prismatic", c_void_p),
     ]
 
 
@@ -97,7 +99,7 @@ _C = Functions({
     "ml_cascade_free": (None, [_P]),
     "ml_cascade_reset": (None, [_P]),
     "ml_cascade_set_log": (None, [_P, POINTER(LogStruct)]),
-    "ml_cascade_sample": (c_int, [_P, c_double, _P, _P, _P, _P, _P, _P]),
+    "ml_cascade_sample": (c_int, [_P, c_double, _P, _P, _P, _P, _P, _P, _P]),
     "ml_cascade_commit": (None, [_P, _P]),
     "ml_cascade_control": (c_int, [_P, c_double, _P, _P, _P]),
 })
@@ -157,7 +159,9 @@ def _drive_parameters(drives: Sequence[ForceDrive], n: int
     values: dict[str, Any] = {name: np.zeros(n) for name in (
         "area", "valve_gain", "capacitance", "leakage", "pressure_kp", "pressure_ki")}
     values.update(supply=np.ones(n), orifice=np.ones(n, dtype=np.intc), min_root=0.05,
-                  rate_alpha=1.0, speed_gain=0.0, compressibility=1)
+                  rate_alpha=1.0, speed_gain=0.0, compressibility=1,
+                  chambers=[chambers.ChambersLaw() for _ in range(n)],
+                  geometry=np.zeros((n, 3)), prismatic=np.zeros(n, dtype=np.intc))
     python = []
     for drive in drives:
         compiled = drive.compiled()
@@ -166,11 +170,25 @@ def _drive_parameters(drives: Sequence[ForceDrive], n: int
             continue
         kinds[drive.joints] = DRIVES[compiled.kind]
         for name, value in compiled.parameters.items():
-            if np.ndim(value) == 0:
+            if name == "chambers":  # one law per joint (ctypes structures)
+                for j, law in zip(drive.joints, value):
+                    values[name][j] = law
+            elif np.ndim(value) == 0:
                 values[name] = value
             else:
                 values[name][drive.joints] = value
     return kinds, values, python
+
+
+def _pinned(values: dict[str, Any], kinds: np.ndarray, keeper: _Keeper) -> dict[str, Any]:
+    """The pinned cylinders' laws, pin geometry and joint kinds for ``ml_cascade_config`` (all
+    None when no joint has one)."""
+    if not (kinds == DRIVES["chambers"]).any():
+        return {"chambers": None, "geometry": None, "prismatic": None}
+    laws = (chambers.ChambersLaw * len(kinds))(*values["chambers"])
+    keeper.arrays.append(laws)  # type: ignore[arg-type]
+    return {"chambers": ctypes.addressof(laws), "geometry": keeper.put(values["geometry"]),
+            "prismatic": keeper.put(values["prismatic"], np.intc)}
 
 
 class CompiledCascade:
@@ -192,6 +210,8 @@ class CompiledCascade:
         self.rows = len(c.rows)
         keeper = _Keeper()
         kinds, valves, self.python = _drive_parameters(c.drives, n)
+        self.kinds = kinds
+        """Each joint's ``ML_DRIVE_*``, (n,)."""
         model = c.model
         g1, gains = c.g1, c.gains
         config = Config(
@@ -213,7 +233,8 @@ class CompiledCascade:
                 "pressure_ki")},
             min_root=float(valves["min_root"]), rate_alpha=float(valves["rate_alpha"]),
             speed_gain=float(valves["speed_gain"]),
-            compressibility=int(bool(valves["compressibility"])))
+            compressibility=int(bool(valves["compressibility"])),
+            **_pinned(valves, kinds, keeper))
         address = _C().ml_cascade_new(ctypes.byref(config))
         if not address:
             raise ControlError("maniplab's compiled cascade could not be made (out of memory)")
@@ -221,9 +242,10 @@ class CompiledCascade:
         self._finalizer = weakref.finalize(self, _C().ml_cascade_free, address)
         # per-sample buffers of the Python path
         self._ref = np.zeros(REF_SIZE)
-        self._q, self._qd, self._dP = np.zeros(n), np.zeros(n), np.zeros(n)
+        self._q, self._qd, self._dP, self._pB = (np.zeros(n) for _ in range(4))
         self.aux = np.zeros((4, n))
-        self._addresses = [int(a.ctypes.data) for a in (self._ref, self._q, self._qd, self._dP)]
+        self._addresses = [int(a.ctypes.data)
+                           for a in (self._ref, self._q, self._qd, self._dP, self._pB)]
         self._logstruct = LogStruct()
         self.log: dict[str, np.ndarray] = {}
         self.reserve(64)
@@ -256,14 +278,18 @@ class CompiledCascade:
         _C().ml_cascade_reset(self.address)
 
     def sample(self, t: float, ref: Any, q: np.ndarray, qd: np.ndarray,
-               dP: np.ndarray | None) -> np.ndarray:
+               dP: np.ndarray | None, pB: np.ndarray | None = None) -> np.ndarray:
         """One sample up to the commands (NaN at the Python drives' joints), (n,); the Python
-        drives' inputs are then in :attr:`aux`. Call :meth:`commit` with the whole command."""
+        drives' inputs are then in :attr:`aux`. Call :meth:`commit` with the whole command.
+
+        ``dP`` holds a lumped cylinder's ΔP and a pinned one's pA, ``pB`` a pinned one's rod
+        side (Pa, (n,) each)."""
         self.reserve(1)
         pack_reference(ref, self._ref)
         self._q[:] = q
         self._qd[:] = qd
         self._dP[:] = 0.0 if dP is None else dP
+        self._pB[:] = 0.0 if pB is None else pB
         cmd = np.empty(self.n)
         _C().ml_cascade_sample(self.address, t, *self._addresses, cmd.ctypes.data,
                               self.aux.ctypes.data)

@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from maniplab.actuators.drive import ForceDrive
+from maniplab.actuators.drive import CompiledDrive, ForceDrive
 from maniplab.actuators.hydraulic import chambers
 from maniplab.actuators.hydraulic.drive import PressureLoop
 
@@ -98,6 +98,21 @@ class ChamberDrive(ForceDrive):
         qb = -sign * max(-sign * q[1], law.gain_b * floor)
         ratio = law.area_b / law.area_a
         return float(law.bulk_modulus * (qa / va - ratio * qb / vb)) * sign
+
+    def compiled(self) -> CompiledDrive:
+        """``chambers``: this drive in C (``cascade.c``'s chamber_drive): each cylinder's law and
+        pins, the loop's gains (unit capacitance, no leakage: k_s is the loop's area), and the
+        PID-only baseline's no-load inversion as ``area / valve_gain`` = i_max r_mid / v_piston."""
+        loop = self.loop
+        return CompiledDrive("chambers", {
+            "chambers": [c.law for c in self.cylinders],
+            "geometry": np.array([c.geometry.constants for c in self.cylinders]),
+            "prismatic": np.array([int(c.joint.prismatic) for c in self.cylinders]),
+            "area": np.array([c.params.valve.current_limit * c.mid_arm for c in self.cylinders]),
+            "valve_gain": np.array([c.piston_speed() for c in self.cylinders]),
+            "capacitance": loop._cap, "leakage": loop._leak, "pressure_kp": loop._kp,
+            "pressure_ki": loop._ki, "min_root": self.min_root, "rate_alpha": loop._alpha,
+            "speed_gain": loop.speed_gain, "compressibility": loop.compressibility})
 
     def speed_command(self, speed: Array) -> Array:
         """i_v = i_max r q̇ / (the piston's no-load speed), r at mid-range (its sign: a joint
