@@ -184,6 +184,27 @@ def test_your_own_controller_is_offered_for_closed_loop_moves(tmp_path: Path) ->
         app.close()
 
 
+def test_runs_start_from_the_pose_typed(tmp_path: Path) -> None:
+    """Issue 33: the GUI starts open-loop runs and moves from a pose, as simulate --start does;
+    a pose of the wrong length is refused under the field, nothing run."""
+    spec = ml.builtin_spec("patu655")
+    app = Gui(spec, tmp_path / "ws", port=_port())
+    try:
+        app.simulate.start.value = "0.2, -0.4, 1.0"
+        app.simulate.duration.value = 0.05
+        app.simulate.run_open_loop()
+        assert "stored run 'run'" in _wait_idle(app)
+        run = app.workspace.load_run("run")
+        np.testing.assert_allclose(run.q[0], [0.2, -0.4, 1.0])
+        np.testing.assert_allclose(run.q[-1], [0.2, -0.4, 1.0], atol=1e-3)  # held there
+        app.simulate.start.value = "0.2, -0.4"
+        app.simulate.run_open_loop()
+        assert "expected 3 finite numbers" in str(app.simulate.input_error.content)
+        assert app.workspace.runs() == ["run"]
+    finally:
+        app.close()
+
+
 def test_gui_listens_on_localhost_and_warns_loudly_otherwise(tmp_path: Path) -> None:
     app = Gui(ml.builtin_spec("planar2"), tmp_path / "ws", port=_port())
     try:

@@ -97,6 +97,10 @@ class SimulateTab:
             self.leakage = gui.add_text("Leakage, m³/(s·Pa)", "", hint="blank: the spec's")
             self.viscous = gui.add_text("Viscous friction", "", hint="N·s/m or N·m·s/rad; "
                                         "blank: the spec's")
+            self.start = gui.add_text("Start pose q (rad or m)", "", hint="comma-separated, "
+                                      "one per joint; blank: all 0 (within the limits). Open "
+                                      "loop starts there held against gravity; a move starts "
+                                      "there too")
             self.duration = gui.add_number("Duration, s", 2.0, min=0.001, max=MAX_DURATION)
             self.dt = gui.add_number("Step, s", 1e-3, min=1e-6, max=0.1, step=1e-4)
         gui.add_button("Run", color="green").on_click(lambda _: self.run_open_loop())
@@ -156,19 +160,28 @@ class SimulateTab:
                                            _number(self.viscous.value, "viscous friction"))
             run_spec = spec.with_overrides(overrides) if overrides else spec
             name = self._free_name(self.name.value)
+            start = self._start(spec)
         except ManiplabError as exc:
             self._fail(str(exc))
             return
         self._fail(None)
         duration, dt = float(self.duration.value), float(self.dt.value)
+        initial: dict[str, Any] = {"dP": "gravity"} | ({"q": start} if start else {})
 
         def work() -> Run:
             from maniplab.sim.simulate import simulate
 
             return simulate(run_spec, inputs=inputs, duration=duration, dt=dt,
-                            initial={"dP": "gravity"}, label=name, progress=False)
+                            initial=initial, label=name, progress=False)
 
         self.app.jobs.start(f"simulating {spec.name}", work, lambda run: self._store(run, name))
+
+    def _start(self, spec: ManipulatorSpec) -> list[float] | None:
+        """The start pose typed (None: blank), one finite number per joint (ControlError)."""
+        from maniplab.control.point_to_point import parse_numbers
+
+        text = self.start.value.strip()
+        return list(parse_numbers(text, "start pose", (spec.n,))) if text else None
 
     def _free_name(self, name: str) -> str:
         """``name`` checked before a run: it, or the ``-2``... it would be stored under, is a
@@ -215,6 +228,7 @@ class SimulateTab:
         duration, mode = float(self.move_duration.value), self.mode.value
         try:
             name = self._free_name(f"{self.name.value}-{mode}")
+            start = self._start(spec)
         except ManiplabError as exc:
             self.verdict.content = warning(exc)
             return
@@ -228,7 +242,7 @@ class SimulateTab:
         self.verdict.content = ""
         factory = self.app.controllers.get(mode)  # your own (gui --controller), else built-in
         self.app.jobs.start(f"{mode} move of {spec.name}",
-                            lambda: run_move(spec, target, start=None, duration=duration,
+                            lambda: run_move(spec, target, start=start, duration=duration,
                                              mode="cascade" if factory else mode,
                                              controller=factory), done)
 
