@@ -146,10 +146,13 @@ class Statics:
             raise LoadChartError(f"{_where(spec)}no gravity (gravity: [0, 0, 0]): nothing to "
                                  "hold, no load chart")
         self.actuators = [model_of(joint) for joint in spec.joints]
-        self.model = build_model(spec.with_overrides({"end_effector.mass": 0.0,
-                                                      "end_effector.inertia": [0.0] * 6}))
-        self.data = mujoco.MjData(self.model)
+        # The arm's own model with the payload's mass and inertia taken out after compiling: a
+        # spec without them may be refused (a rotator that turns only the payload drives no mass).
+        self.model = build_model(spec)
         self.body = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, END_EFFECTOR)
+        self.model.body_mass[self.body] = 0.0
+        self.model.body_inertia[self.body] = 0.0
+        self.data = mujoco.MjData(self.model)
         self.com = np.asarray(spec.end_effector.com, dtype=float)
         self._jac = np.zeros((3, self.model.nv))
         self._bias = np.zeros(self.model.nv)

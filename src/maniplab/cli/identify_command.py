@@ -30,6 +30,9 @@ def add(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--params", required=True, metavar="P1,P2,...",
                    help="dotted spec paths to fit, as for --set, each optionally with bounds: "
                         "joints.q2.friction.coulomb,end_effector.mass[0:8000]")
+    p.add_argument("--set", action="append", default=[], metavar="PATH=VALUE",
+                   help="PATH=VALUE override of the spec, repeatable: a parameter's start (the "
+                        "fit starts from the spec's values), e.g. end_effector.mass=4000")
     p.add_argument("--signals", metavar="S1,S2",
                    help="measured signals to fit (default: all the data has of q, qd, dP, pA, pB)")
     p.add_argument("--loss", default="linear", choices=("linear", "soft_l1", "huber", "cauchy"),
@@ -44,15 +47,19 @@ def add(sub: argparse._SubParsersAction) -> None:
 
 def _cmd_identify(args: argparse.Namespace) -> int:
     from maniplab.atomic import write_text
+    from maniplab.builtin import resolve_spec
     from maniplab.identification import identify, write_figure
+    from maniplab.sim.grammar import parse_assignment
     from maniplab.spec.yaml_io import dump_yaml
 
+    overrides = dict(parse_assignment(text) for text in args.set)
+    spec = resolve_spec(args.spec).with_overrides(overrides) if overrides else args.spec
     params = [text for text in _split(args.params) if text]
     signals = [s.strip() for s in args.signals.split(",")] if args.signals else None
     if args.suggest:
         from maniplab.identification.suggest import SIGNALS, suggest
 
-        print(suggest(args.spec, params, duration=args.duration,
+        print(suggest(spec, params, duration=args.duration,
                       signals=signals or SIGNALS).report())
         return 0
     if not args.data:
@@ -60,7 +67,7 @@ def _cmd_identify(args: argparse.Namespace) -> int:
 
         raise IdentificationError("no data: give one or more files (CSV or run files), or "
                                   "--suggest for experiments to make them")
-    result = identify(args.spec, args.data, params, signals=signals, loss=args.loss)
+    result = identify(spec, args.data, params, signals=signals, loss=args.loss)
     print(result.report())
     header = [(f"# maniplab spec '{result.spec.name}', fitted by maniplab identify to "
                f"{', '.join(str(d) for d in args.data)}:")]
