@@ -64,7 +64,10 @@ def test_c_plant_equals_the_python_plant(arm: str) -> None:
         assert plant.modes.tolist() == ref.modes, f"modes after step {k}"
         np.testing.assert_allclose(record.qd, ref.qd_at_start, rtol=1e-12, atol=1e-12)
         force = np.maximum(1.0, np.abs(ref.fric) + np.abs(ref.limit))
-        np.testing.assert_allclose(np.array(record.fric) / force, np.array(ref.fric) / force,
+        # a LuGre joint's friction record is its bristle force, which the reference leaves out
+        hybrid = np.array([j.friction.model.value != "lugre" for j in plant.spec.joints])
+        np.testing.assert_allclose((np.array(record.fric) / force)[hybrid],
+                                   (np.array(ref.fric) / force)[hybrid],
                                    rtol=0, atol=1e-9, err_msg=f"friction at step {k}")
         np.testing.assert_allclose(np.array(record.limit) / force, np.array(ref.limit) / force,
                                    rtol=0, atol=1e-9, err_msg=f"limit force at step {k}")
