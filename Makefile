@@ -56,3 +56,12 @@ clean:
 .PHONY: sanitize
 sanitize: $(STAMP)
 	$(BIN)/python tests/sanitize/run.py
+
+# mutation testing (not part of make test): one small change at a time to the physics, control,
+# identification, FMU and load-chart sources, in a private copy of HEAD, against focused tests;
+# a fixed sample per group (MUTANTS_ARGS="--sample 0" for all); results in out/mutants/
+# (docs/about/development.md, "Mutation testing")
+.PHONY: mutants
+MUTANTS_ARGS ?=
+mutants: $(STAMP)
+	nice -n 10 $(BIN)/python tests/mutants/run.py $(MUTANTS_ARGS)

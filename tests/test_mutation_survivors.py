@@ -1,0 +1,53 @@
+"""Tests written for mutants that survived ``make mutants`` (tests/mutants/run.py) and were not
+equivalent: each names the change it kills (docs/about/development.md, "Mutation testing")."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import maniplab as ml
+from maniplab.control.metrics import _pressures
+from maniplab.control.trajectory import Path as MovePath
+from maniplab.control.trajectory import Pose
+from maniplab.fmu.variables import variables
+from maniplab.sim.plant import Plant
+
+ARMS = Path(__file__).parent / "arms"
+
+
+def test_via_points_without_a_dwell_go_straight_on() -> None:
+    """Kills ``dwell: float = 0.0`` -> ``1`` in ``Path.via_points`` (trajectory.py): no Hold
+    segment and no added time unless a dwell is asked for."""
+    poses = [Pose([0.0, 0, 0]), Pose([1.0, 0, 0]), Pose([1.0, 1.0, 0])]
+    path = MovePath.via_points(poses, [2.0, 3.0])
+    assert path.duration == pytest.approx(5.0)
+    assert [type(s).__name__ for s in path.segments] == ["MinJerkMove", "MinJerkMove"]
+
+
+def test_peak_pressures_of_an_arm_with_electric_joints_and_an_unloaded_cylinder() -> None:
+    """Kills, in ``_pressures`` (control/metrics.py), ``if mine and not peak <= best`` -> ``or``
+    (a joint without pressures, an electric one, then crashes the table) and ``v[j] >= 0.0`` ->
+    ``> 0.0`` (a cylinder that never carries a load, crane3's slew at rest: its peak is 0 MPa,
+    not missing)."""
+    run = ml.simulate(ml.load_spec(ARMS / "electrohydraulic.yaml"), duration=0.02,
+                      initial={"dP": "gravity"}, progress=False)
+    table = _pressures(run)
+    electric = [j.name for j in run.spec.joints if j.actuator.type != "hydraulic"]
+    assert electric and all(table["joints"][j]["pressure"] == "" for j in electric)
+    assert np.isfinite(table["peak_pressure_MPa"]) and table["peak_pressure_joint"]
+    crane = ml.simulate(ml.builtin_spec("crane3"), duration=0.02, initial={"dP": "gravity"},
+                        progress=False)
+    slew = _pressures(crane)["joints"]["slew"]
+    assert slew["pressure"] == "dP" and slew["peak_pressure_MPa"] == 0.0
+
+
+def test_the_fmu_states_a_bristle_deflection_in_the_joints_position_unit() -> None:
+    """Kills ``_motion_units(plant, j)[0]`` -> ``[1]`` in ``_state_unit`` (fmu/variables.py):
+    LuGre's bristle deflection z of a revolute joint is in rad, not rad/s."""
+    plant = Plant(ml.load_spec(ARMS / "electrohydraulic.yaml"))
+    units = {v.name: v.unit for v in variables(plant, [])}
+    bristles = [name for name in units if name.startswith("z.")]
+    assert bristles and all(units[name] == "rad" for name in bristles), units
