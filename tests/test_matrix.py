@@ -114,6 +114,11 @@ EXPECTED: dict[tuple[str, str], Expected] = {
         "defect", "joint q4: command at its limit",
         "KNOWN DEFECT: the planner accepts the move (stretched to 19.8 s), then the cascade's "
         "position task drives the wrist joints q4 and q5 onto their limits and misses by 181 mm"),
+    **{(arm, "identify"): Expected(
+        "defect", "misses the truth",
+        "KNOWN DEFECT: the fit lands within 0.2 % of the truth, but its 95 % interval is "
+        "±0.00001 % wide and excludes it (overconfident under stick/slip; full matrix only)")
+       for arm in ("erector_pinned", "arms/erector7")},
     ("arms/electric2", "control"): _HOLD,
     ("arms/electric2", "control-pid"): _HOLD,
     ("arms/mixed/forestry_grapple", "control"): _STRAIGHT,
@@ -575,7 +580,9 @@ def cell_identify(arm: str, work: Path) -> str:
     assert row, out
     low, high = float(row[1]), float(row[2])  # 95 %: about ±2σ; the truth within ±4σ
     assert fitted == pytest.approx(truth, rel=0.05), out
-    assert fitted - (high - low) <= truth <= fitted + (high - low), out
+    assert fitted - (high - low) <= truth <= fitted + (high - low), \
+        f"the 95 % interval [{low:.6g}, {high:.6g}] misses the truth {truth:.6g} by more than " \
+        f"twice its width (fitted {fitted:.6g})"
     return f"{fitted:.4g} kg of {truth:.4g}"
 
 
