@@ -9,11 +9,13 @@ import numpy as np
 import pytest
 
 import maniplab as ml
+from maniplab.actuators.hydraulic import PinnedCylinder
 from maniplab.control.metrics import _pressures
 from maniplab.control.trajectory import Path as MovePath
 from maniplab.control.trajectory import Pose
 from maniplab.fmu.variables import variables
 from maniplab.sim.plant import Plant
+from maniplab.spec import model_of
 
 ARMS = Path(__file__).parent / "arms"
 
@@ -51,3 +53,39 @@ def test_the_fmu_states_a_bristle_deflection_in_the_joints_position_unit() -> No
     units = {v.name: v.unit for v in variables(plant, [])}
     bristles = [name for name in units if name.startswith("z.")]
     assert bristles and all(units[name] == "rad" for name in bristles), units
+
+
+def _lift() -> PinnedCylinder:
+    spec = ml.builtin_spec("patu655")
+    actuator = model_of(spec.joint("lift"))
+    assert isinstance(actuator, PinnedCylinder)
+    return actuator
+
+
+@pytest.mark.parametrize("sign", [1.0, -1.0])
+def test_holding_pressures_exert_the_force_either_way(sign: float) -> None:
+    """Kills ``(tank * c.cap_area - f) / c.rod_area`` -> ``(tank * c.cap_area) / c.rod_area`` in
+    ``PinnedCylinder.holding`` (pinned.py): a load the cylinder holds by pulling puts the rod
+    side above tank, by pA A_A - pB A_B = F (F = τ / r), the cap side at tank."""
+    cylinder, q = _lift(), 0.0
+    low, high = cylinder.holding_range(q)
+    torque = 0.5 * (high if sign > 0 else low)
+    pa, pb, spool = cylinder.holding(torque, q)
+    c, tank = cylinder.params.cylinder, cylinder.params.tank_pressure
+    force = torque / float(cylinder.geometry.arm(q))
+    assert pa * c.cap_area - pb * c.rod_area == pytest.approx(force, rel=1e-12)
+    assert min(pa, pb) == tank and spool == 0.0
+
+
+def test_a_steady_speed_beyond_the_valves_reach_asks_for_an_infinite_current() -> None:
+    """Kills ``abs(x[2]) <= 1.0`` -> ``<= 2.0`` in ``PinnedCylinder.steady`` (pinned.py): over
+    speeds up to three times what the open valve passes, every steady current is within the
+    current limit or infinite (no opening within ±1 does it), and both happen."""
+    cylinder, q = _lift(), -0.2
+    high = cylinder.holding_range(q)[1]
+    limit = cylinder.params.valve.current_limit
+    currents = [cylinder.steady(0.3 * high, q, v).u
+                for v in np.linspace(-3.0, 3.0, 61) * cylinder.top_speed]
+    assert all(abs(u) <= limit or np.isinf(u) for u in currents), currents
+    assert any(np.isinf(u) for u in currents) and any(0.5 * limit < abs(u) <= limit
+                                                      for u in currents)

@@ -44,8 +44,9 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 
 HYDRAULIC_TESTS = ["tests/test_hydraulic_edges.py", "tests/test_valve_law.py",
-                   "tests/test_cylinder_physics.py", "tests/test_pinned_geometry.py",
-                   "tests/test_sim_hydraulic.py", "tests/test_actuators.py"]
+                   "tests/test_mutation_survivors.py", "tests/test_cylinder_physics.py",
+                   "tests/test_pinned_geometry.py", "tests/test_sim_hydraulic.py",
+                   "tests/test_actuators.py"]
 
 GROUPS: dict[str, tuple[list[str], list[str]]] = {
     # group: (sources, the focused tests run against each of their mutants, fastest first)
@@ -55,7 +56,8 @@ GROUPS: dict[str, tuple[list[str], list[str]]] = {
                     "src/maniplab/actuators/hydraulic/geometry.py",
                     "src/maniplab/actuators/hydraulic/pinned.py"], HYDRAULIC_TESTS),
     "friction": (["src/maniplab/friction/lugre.py", "src/maniplab/friction/modes.py"],
-                 ["tests/test_friction_lugre.py", "tests/test_friction_hybrid.py"]),
+                 ["tests/test_friction_lugre.py", "tests/test_actuators.py",
+                  "tests/test_friction_hybrid.py"]),
     "native": (["src/maniplab_native/chambers.h", "src/maniplab_native/cylinder.c",
                 "src/maniplab_native/valve.h", "src/maniplab_native/hydraulic.c",
                 "src/maniplab_native/lugre.c"],
@@ -66,13 +68,13 @@ GROUPS: dict[str, tuple[list[str], list[str]]] = {
                  "src/maniplab/control/cascade.py", "src/maniplab/control/metrics.py"],
                 ["tests/test_control_pid.py", "tests/test_control_trajectory.py",
                  "tests/test_control_kinematics.py", "tests/test_control_blocks.py",
-                 "tests/test_control_cascade.py"]),
+                 "tests/test_control_cascade.py", "tests/test_mutation_survivors.py"]),
     "identification": (["src/maniplab/identification/fit.py",
                         "src/maniplab/identification/data.py",
                         "src/maniplab/identification/parameters.py"],
                        ["tests/test_identify_intervals.py", "tests/test_identify.py"]),
     "fmu": (["src/maniplab/fmu/variables.py", "src/maniplab/fmu/description.py"],
-            ["tests/test_fmu_units.py", "tests/test_fmu.py"]),
+            ["tests/test_fmu_units.py", "tests/test_mutation_survivors.py", "tests/test_fmu.py"]),
     "loadchart": (["src/maniplab/loadchart.py"], ["tests/test_loadchart.py"]),
 }
 
