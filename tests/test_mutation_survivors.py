@@ -14,6 +14,7 @@ from maniplab.control.metrics import _pressures
 from maniplab.control.trajectory import Path as MovePath
 from maniplab.control.trajectory import Pose
 from maniplab.fmu.variables import variables
+from maniplab.loadchart import load_chart
 from maniplab.sim.plant import Plant
 from maniplab.spec import model_of
 
@@ -89,3 +90,12 @@ def test_a_steady_speed_beyond_the_valves_reach_asks_for_an_infinite_current() -
     assert all(abs(u) <= limit or np.isinf(u) for u in currents), currents
     assert any(np.isinf(u) for u in currents) and any(0.5 * limit < abs(u) <= limit
                                                       for u in currents)
+
+
+def test_a_load_chart_of_one_joint_takes_the_whole_pose_budget() -> None:
+    """Kills ``active = max(1, ...)`` -> ``max(2, ...)`` in ``load_chart`` (loadchart.py): with
+    one joint that moves, the grid has ``max_poses`` points along it, not their square root."""
+    from test_loadchart import BOOM
+
+    chart = load_chart(ml.ManipulatorSpec.from_dict(BOOM), max_poses=40)
+    assert len(chart.q) == 40

@@ -75,7 +75,8 @@ GROUPS: dict[str, tuple[list[str], list[str]]] = {
                        ["tests/test_identify_intervals.py", "tests/test_identify.py"]),
     "fmu": (["src/maniplab/fmu/variables.py", "src/maniplab/fmu/description.py"],
             ["tests/test_fmu_units.py", "tests/test_mutation_survivors.py", "tests/test_fmu.py"]),
-    "loadchart": (["src/maniplab/loadchart.py"], ["tests/test_loadchart.py"]),
+    "loadchart": (["src/maniplab/loadchart.py"],
+                  ["tests/test_loadchart.py", "tests/test_mutation_survivors.py"]),
 }
 
 DEFAULT_SAMPLE = 12
