@@ -99,3 +99,10 @@ def test_a_load_chart_of_one_joint_takes_the_whole_pose_budget() -> None:
 
     chart = load_chart(ml.ManipulatorSpec.from_dict(BOOM), max_poses=40)
     assert len(chart.q) == 40
+
+
+def test_a_small_pose_budget_keeps_two_points_per_joint() -> None:
+    """Kills ``points = max(2, ...)`` -> ``max(4, ...)`` in ``load_chart`` (loadchart.py): a
+    budget of 8 poses over crane3's two joints that gravity loads (the slew turns about the
+    vertical, idle) is a grid of 2 × 2, not 4 × 4."""
+    assert len(load_chart("crane3", max_poses=8).q) == 4
