@@ -72,7 +72,14 @@ GROUPS: dict[str, tuple[list[str], list[str]]] = {
     "identification": (["src/maniplab/identification/fit.py",
                         "src/maniplab/identification/data.py",
                         "src/maniplab/identification/parameters.py"],
-                       ["tests/test_identify_intervals.py", "tests/test_identify.py"]),
+                       # the fast tests of test_identify.py (the whole file takes minutes)
+                       ["tests/test_identify.py::test_a_bad_parameter_is_one_line",
+                        "tests/test_identify.py::test_held_inputs_keep_each_sample_until_the_next",
+                        "tests/test_identify_intervals.py",
+                        ("tests/test_identify.py::test_payload_leakage_and_bulk_modulus_are_"
+                        "recovered_on_crane3"),
+                        ("tests/test_identify.py::test_two_parameters_the_data_cannot_separate_"
+                        "are_flagged")]),
     "fmu": (["src/maniplab/fmu/variables.py", "src/maniplab/fmu/description.py"],
             ["tests/test_fmu_units.py", "tests/test_mutation_survivors.py", "tests/test_fmu.py"]),
     "loadchart": (["src/maniplab/loadchart.py"],
