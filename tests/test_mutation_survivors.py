@@ -14,6 +14,7 @@ from maniplab.control.metrics import _pressures
 from maniplab.control.trajectory import Path as MovePath
 from maniplab.control.trajectory import Pose
 from maniplab.fmu.variables import variables
+from maniplab.friction import steady_force
 from maniplab.loadchart import load_chart
 from maniplab.sim.plant import Plant
 from maniplab.spec import model_of
@@ -106,3 +107,13 @@ def test_a_small_pose_budget_keeps_two_points_per_joint() -> None:
     budget of 8 poses over crane3's two joints that gravity loads (the slew turns about the
     vertical, idle) is a grid of 2 × 2, not 4 × 4."""
     assert len(load_chart("crane3", max_poses=8).q) == 4
+
+
+def test_lugre_steady_force_at_rest_is_zero() -> None:
+    """Kills ``g * np.sign(v)`` -> ``g / np.sign(v)`` in ``steady_force`` (friction/lugre.py):
+    the same for every sliding speed, but at rest the Stribeck curve passes through 0."""
+    friction = ml.Friction(model="lugre", coulomb=1.0, static=0.5, stribeck_velocity=1e-3,
+                           viscous=0.4)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        forces = steady_force(friction, np.array([-0.1, 0.0, 0.1]))
+    assert forces[1] == 0.0 and forces[2] == -forces[0] > 1.0
