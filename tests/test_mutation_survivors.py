@@ -12,7 +12,7 @@ import maniplab as ml
 from maniplab.actuators.hydraulic import PinnedCylinder
 from maniplab.control.metrics import _pressures
 from maniplab.control.trajectory import Path as MovePath
-from maniplab.control.trajectory import Pose
+from maniplab.control.trajectory import Pose, segment_placement
 from maniplab.fmu.variables import variables
 from maniplab.friction import steady_force
 from maniplab.loadchart import load_chart
@@ -117,3 +117,12 @@ def test_lugre_steady_force_at_rest_is_zero() -> None:
     with np.errstate(divide="ignore", invalid="ignore"):
         forces = steady_force(friction, np.array([-0.1, 0.0, 0.1]))
     assert forces[1] == 0.0 and forces[2] == -forces[0] > 1.0
+
+
+def test_segment_placement_without_a_dwell_and_with_its_default_durations() -> None:
+    """Kills, in ``segment_placement`` (trajectory.py), ``if dwell > 0.0`` -> ``>=`` (zero-length
+    holds) and the default ``durations=(2.0, 4.0, 2.0)`` -> ``(2.0, 4.0, 4.0)`` or the like:
+    pick, rotate and push take 2 + 4 + 2 s, with no dwell between them when none is asked."""
+    path = segment_placement(Pose([0.4, -3.2, 0.0]), dwell=0.0)
+    assert path.names == ("pick", "rotate", "push")
+    assert [s.duration for s in path.segments] == pytest.approx([2.0, 4.0, 2.0])
