@@ -19,6 +19,7 @@ Usage::
     python tests/mutants/run.py                       # the default sample of every group
     python tests/mutants/run.py --groups loadchart --sample 0
     python tests/mutants/run.py --list                # the mutants, not run
+    python tests/mutants/run.py --rerun out/mutants/results.jsonl --out out/mutants-rerun
 
 Results: one JSON line per mutant and a Markdown summary in ``--out`` (default out/mutants/).
 """
@@ -335,8 +336,31 @@ class Copy:
         shutil.rmtree(self.folder, ignore_errors=True)
 
 
-def run(groups: list[str], n: int, seed: int, out: Path) -> int:
-    chosen = {g: sample(ms, n, seed) for g, ms in all_mutants(groups).items()}
+def survivors_of(logs: list[Path], groups: list[str]) -> dict[str, list[Mutant]]:
+    """The mutants recorded as survived in earlier results (JSON lines), found again among the
+    mutants of HEAD by their place, kind and change."""
+    wanted = set()
+    for log in logs:
+        for line in log.read_text().splitlines():
+            d = json.loads(line)
+            if d["verdict"] == "survived" and d["group"] in groups:
+                wanted.add((d["group"], d["where"], d["kind"], d["change"]))
+    out: dict[str, list[Mutant]] = {g: [] for g in groups}
+    for group, mutants in all_mutants(groups).items():
+        for m in mutants:
+            key = (group, f"{m.path}:{m.line}", m.kind, m.describe(head_source(m.path)))
+            if key in wanted:
+                out[group].append(m)
+    return out
+
+
+def run(groups: list[str], n: int, seed: int, out: Path,
+        rerun: list[Path] | None = None) -> int:
+    if rerun:
+        chosen = survivors_of(rerun, groups)
+        groups = [g for g in groups if chosen[g]]
+    else:
+        chosen = {g: sample(ms, n, seed) for g, ms in all_mutants(groups).items()}
     enumerated = {g: len(ms) for g, ms in all_mutants(groups).items()}
     out.mkdir(parents=True, exist_ok=True)
     log = out / "results.jsonl"
@@ -413,6 +437,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seed", type=int, default=42)
     parser.add_argument("--list", action="store_true", help="list the mutants, run nothing")
     parser.add_argument("--out", type=Path, default=ROOT / "out" / "mutants")
+    parser.add_argument("--rerun", type=Path, nargs="+", metavar="RESULTS",
+                        help="run again the survivors of earlier results.jsonl files (after "
+                             "adding tests), instead of a sample")
     args = parser.parse_args(argv)
     groups = [g.strip() for g in args.groups.split(",") if g.strip()]
     unknown = [g for g in groups if g not in GROUPS]
@@ -431,7 +458,7 @@ def main(argv: list[str] | None = None) -> int:
 
     signal.signal(signal.SIGTERM, interrupt)  # a kill also deletes the copy
     try:
-        return run(groups, args.sample, args.seed, args.out)
+        return run(groups, args.sample, args.seed, args.out, args.rerun)
     except KeyboardInterrupt:
         print("interrupted: the copy is deleted, the working tree was never touched",
               file=sys.stderr)
