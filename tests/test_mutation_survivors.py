@@ -106,8 +106,13 @@ def test_a_load_chart_of_one_joint_takes_the_whole_pose_budget() -> None:
 def test_a_small_pose_budget_keeps_two_points_per_joint() -> None:
     """Kills ``points = max(2, ...)`` -> ``max(4, ...)`` in ``load_chart`` (loadchart.py): a
     budget of 8 poses over crane3's two joints that gravity loads (the slew turns about the
-    vertical, idle) is a grid of 2 × 2, not 4 × 4."""
+    vertical, idle) is a grid of 2 × 2, not 4 × 4. Also kills ``spec.n - len(idle)`` -> ``+``
+    (100 poses over crane3's two loaded joints: 10 × 10, not 3 × 3) and dropping the ``+ 1e-9``
+    of the root (1000 ** (1/3) is 9.999999999999998: the excavator's three loaded joints get
+    10 points each, not 9)."""
     assert len(load_chart("crane3", max_poses=8).q) == 4
+    assert len(load_chart("crane3", max_poses=100).q) == 100
+    assert len(load_chart("excavator", max_poses=1000).q) == 1000
 
 
 def test_lugre_steady_force_at_rest_is_zero() -> None:
