@@ -149,3 +149,16 @@ def test_the_pid_baseline_moves_crane3_out_and_back() -> None:
         assert result.metrics.final_error_mm < 5.0, (goal, result.metrics.final_error_mm)
     lines = format_table([result.metrics]).splitlines()  # a Markdown table, its columns aligned
     assert len(lines) == 3 and len({len(line) for line in lines}) == 1, lines
+
+
+def test_a_load_chart_charts_a_joint_without_limits_all_round() -> None:
+    """Kills ``joint.limits or (-math.pi, math.pi)`` -> ``(math.pi, math.pi)`` in ``load_chart``
+    (loadchart.py): a boom without limits is charted over a whole turn."""
+    import copy
+
+    from test_loadchart import BOOM
+
+    boom = copy.deepcopy(BOOM)
+    del boom["joints"][0]["limits"]
+    q = load_chart(ml.ManipulatorSpec.from_dict(boom), points=5).q[:, 0]
+    assert q.min() == pytest.approx(-np.pi) and np.ptp(q) > 1.5 * np.pi
