@@ -349,3 +349,23 @@ def test_a_pinned_cylinders_drive_reads_pA_and_pB_from_the_plants_state() -> Non
     np.testing.assert_allclose(cmd[j], want, rtol=1e-12, atol=1e-15)
     np.testing.assert_allclose(controller.signals()["pL_d"][0][j], fresh.log["pL_d"], rtol=1e-12)
     assert np.all(state["pA"][j] > 1e6)
+
+
+def test_the_pull_towards_the_planned_joint_path_equals_the_frozen_python_cascade() -> None:
+    """A redundant arm (the erector on a position task) with the planner's joint path: the C
+    sample's null-space pull equals the frozen Python cascade's, sample by sample."""
+    from maniplab.control.point_to_point import plan_move
+
+    spec = ml.builtin_spec("erector")
+    model = ml.AnalyticModel(spec)
+    q0 = [-0.18, 1.27, 0.0, 0.0, 0.0, 0.0]
+    target = model.fk(np.array(q0) + [0.05, -0.05, 0.1, 0.05, 0.05, 0.0])[:3, 3]
+    plan = plan_move(spec, target, start=q0, duration=1.0, t0=0.05, model=model)
+    controller = CascadeController(spec, plan.move, model=model, task="position",
+                                   joint_path=plan.joint_reference)
+    states = closed_loop(controller, q0, 300)
+    reference = reference_of(controller, states)
+    assert_same(controller.signals(), reference.signals())
+    free = CascadeController(spec, plan.move, model=model, task="position")
+    free_states = closed_loop(free, q0, 300)
+    assert not np.allclose(free_states[-1][1], states[-1][1])  # the pull does move the joints

@@ -110,10 +110,6 @@ _HOLD = Expected("refused", "joint shoulder cannot hold the arm on this path",
                  "to hold the arm, beyond the 80 % a move may plan with")
 
 EXPECTED: dict[tuple[str, str], Expected] = {
-    ("erector", "control"): Expected(
-        "defect", "joint q4: command at its limit",
-        "KNOWN DEFECT: the planner accepts the move (stretched to 19.8 s), then the cascade's "
-        "position task drives the wrist joints q4 and q5 onto their limits and misses by 181 mm"),
     **{(arm, "identify"): Expected(
         "defect", "misses the truth",
         "KNOWN DEFECT: the fit lands within 0.2 % of the truth, but its 95 % interval is "

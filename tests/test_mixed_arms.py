@@ -130,3 +130,21 @@ def test_info_shows_the_signed_moment_arm_and_the_shared_pump(capsys) -> None:
     r = maps.moment_arms(np.array([[0.0, q, 1.0, 0.0, 0.0] for q in np.linspace(lo, hi, 33)]))
     assert f"r {r[:, 1].min():.3g}..{r[:, 1].max():.3g} m/rad" in out
     assert "pump: 20 MPa, 150 L/min, shared by boom, jib" in out
+
+
+def test_a_redundant_arm_follows_its_planned_joint_path_instead_of_parking_on_a_limit() -> None:
+    """Issue 33, defect 12: from q = 0 the erector's position-task move was accepted, then the
+    cascade drove the wrist joints q4 and q5 onto their limits, never moved q2, and ended 181 mm
+    off (exit 3). The null space now pulls the joints towards the planner's joint path."""
+    spec = ml.builtin_spec("erector")
+    model = ml.AnalyticModel(spec)
+    target = model.fk(np.array([0.7, 0.3, 0.2, 0.05, 0.06, 0.06]))[:3, 3]
+    result = ml.control.run_move(spec, target, start=np.zeros(6), duration=1.5, settle=0.3,
+                                 sample_dt=0.01)
+    assert result.metrics.final_error_mm < 2.0 and result.metrics.rms_error_mm < 5.0
+    assert result.health.verdict == "ok", result.health.lines()
+    lower = np.array([j.limits[0] for j in spec.joints])
+    upper = np.array([j.limits[1] for j in spec.joints])
+    q = result.run.q[-1]
+    assert np.all((q - lower > 1e-2) & (upper - q > 1e-2))  # no joint parked on a limit
+    np.testing.assert_allclose(q[:2], result.plan.path.q[-1][:2], atol=0.2)  # boom, lift moved

@@ -375,9 +375,29 @@ typedef struct {
   double *a_x, *qdd, *tau, *dP_d, *phi;
 } row_view;
 
+/* The null space's part of the pull towards the planned joint path, added to qdd:
+   (I - J+ J) z with z = w^2 (q_p - q) + D qd_p, w = D/2 (the damping term -D (I - J+ J) qd is
+   the caller's), J+ J z by the same least squares. */
+static void posture_pull(ml_cascade* c, const double* q, const double* posture, double* qdd) {
+  const ml_cascade_config* g = &c->cfg;
+  int n = g->n, m = g->rows;
+  double w = 0.5 * g->null_damping, stiffness = w * w;
+  for (int j = 0; j < n; j++) {
+    c->err[j] = stiffness * (posture[j] - q[j]) + g->null_damping * posture[n + j];
+  }
+  for (int i = 0; i < m; i++) {
+    double sum = 0.0;
+    for (int j = 0; j < n; j++) sum += c->J[i * n + j] * c->err[j];
+    c->rhs[i] = sum;
+  }
+  ml_dls_solve(&c->dls, c->rhs, 1, c->rate);
+  for (int j = 0; j < n; j++) qdd[j] += c->err[j] - c->rate[j];
+}
+
 static void cascade_mode(ml_cascade* c, const double* ref, const double* q, const double* qd,
-                         const double* dP, const double* pB, const double* e, const double* de,
-                         const double* Jqd, double* cmd, double* aux, row_view row) {
+                         const double* dP, const double* pB, const double* posture,
+                         const double* e, const double* de, const double* Jqd, double* cmd,
+                         double* aux, row_view row) {
   const ml_cascade_config* g = &c->cfg;
   int n = g->n, m = g->rows;
   double* rhs = c->rhs;
@@ -398,6 +418,7 @@ static void cascade_mode(ml_cascade* c, const double* ref, const double* q, cons
     qdd[j] = sol[3 * j];
     if (g->null_damping > 0.0) qdd[j] = qdd[j] - g->null_damping * (qd[j] - sol[3 * j + 2]);
   }
+  if (posture && g->null_damping > 0.0) posture_pull(c, q, posture, qdd);
   /* G1 */
   g->mass_bias(g->params, q, qd, NULL, c->Mb);
   const double* M = c->Mb;
@@ -480,8 +501,8 @@ static void pid_mode(ml_cascade* c, const double* q, const double* qd, const dou
 /* --- the sample ------------------------------------------------------------------------------- */
 
 int ml_cascade_sample(ml_cascade* c, double t, const double* ref, const double* q,
-                      const double* qd, const double* dP, const double* pB, double* cmd,
-                      double* aux) {
+                      const double* qd, const double* dP, const double* pB,
+                      const double* posture, double* cmd, double* aux) {
   const ml_cascade_config* g = &c->cfg;
   int n = g->n, m = g->rows;
   ml_cascade_log* log = c->log;
@@ -544,7 +565,7 @@ int ml_cascade_sample(ml_cascade* c, double t, const double* ref, const double* 
   if (g->mode == ML_MODE_PID) {
     pid_mode(c, q, qd, e, de, cmd, aux, row);
   } else {
-    cascade_mode(c, ref, q, qd, dP, pB, e, de, Jqd, cmd, aux, row);
+    cascade_mode(c, ref, q, qd, dP, pB, posture, e, de, Jqd, cmd, aux, row);
   }
   return status;
 }
@@ -583,8 +604,9 @@ int ml_cascade_control(void* context, double t, const mjModel* m, const mjData* 
     c->dP[j] = pressures ? d->act[adr] : 0.0;
     c->pB[j] = drive == ML_DRIVE_CHAMBERS ? d->act[adr + 1] : 0.0;
   }
+  const double* posture = run->postures ? run->postures + 2 * n * k : NULL;
   int status = ml_cascade_sample(c, t, run->refs + ML_REF_SIZE * k, d->qpos, d->qvel, c->dP,
-                                 c->pB, u, NULL);
+                                 c->pB, posture, u, NULL);
   if (status) return run->status = status;
   ml_cascade_commit(c, u);
   for (int j = 0; j < n; j++) {

@@ -12,7 +12,9 @@
    3. cascade: a_x = accel_d + PID(e, de) (integrator frozen while the last command saturated);
       qdd = J+ (a_x - Jdot qd) by damped least squares (linalg.h), Jdot qd the central difference
       of J along qd, minus null_damping times the joint speed's null-space part on a redundant
-      arm; G1: tau = M qdd + C qd + G + Fv qd (+ Fc tanh(qd_ref / vs)), qd_ref = J+ twist_d;
+      arm (with a planned joint path, the null space's part of w^2 (q_p - q) + D (qd_p - qd),
+      w = D/2: the arm follows the path the planner checked instead of drifting onto a limit);
+      G1: tau = M qdd + C qd + G + Fv qd (+ Fc tanh(qd_ref / vs)), qd_ref = J+ twist_d;
       then each joint's drive: a valve's pressure loop and G2 (valve.h), a pinned cylinder's
       load-pressure loop and four-edge valve inversion (chambers.h), or a force source's
       clip(tau);
@@ -134,6 +136,8 @@ typedef struct {
   const double* times;          /* (count) ascending, s */
   const double* refs;           /* (count, ML_REF_SIZE) */
   int status;                   /* ML_CASCADE_* of the failed call, 0 */
+  const double* postures;       /* (count, 2 n): the planned joint path q, qd at each sample, or
+                                   NULL */
 } ml_cascade_run;
 
 /* sizeof of the structures, for the Python side's check of its mirrors. */
@@ -152,11 +156,12 @@ void ml_cascade_set_log(ml_cascade* c, ml_cascade_log* log);
 /* One sample up to the commands: cmd (n; NaN at Python drives), the row's signals but the
    command; aux (ML_AUX_SIZE x n, or NULL). The pressures (n): dP of a lumped cylinder, and at a
    pinned one its cap side in dP and its rod side in pB (pB may be NULL when no joint has one).
-   A pinned cylinder's desired load pressure goes to the row's dP_d. Returns ML_CASCADE_OK or
-   ML_CASCADE_LOG_FULL. */
+   A pinned cylinder's desired load pressure goes to the row's dP_d. `posture` (2n: q, qd of the
+   planned joint path at t, or NULL) pulls a redundant arm towards that path in the task's null
+   space. Returns ML_CASCADE_OK or ML_CASCADE_LOG_FULL. */
 int ml_cascade_sample(ml_cascade* c, double t, const double* ref, const double* q,
-                      const double* qd, const double* dP, const double* pB, double* cmd,
-                      double* aux);
+                      const double* qd, const double* dP, const double* pB,
+                      const double* posture, double* cmd, double* aux);
 
 /* Finish the sample with the whole command (n): the saturation flag the outer integrator reads
    next sample, and the row's command; the row counts from now on. */

@@ -83,6 +83,7 @@ class ReferenceCascade:
         self.actuators = [model_of(j) for j in self.spec.joints]
         self.dt = controller.dt
         self.rows = controller.rows
+        self.joint_path = controller.joint_path
         self._build_loops()
         self.reset()
 
@@ -145,12 +146,12 @@ class ReferenceCascade:
         if self.mode == "pid":
             cmd, log = self._pid_only(q, qd, states, dls, e[:m], de)
         else:
-            cmd, log = self._cascade(q, qd, states, ref, dls, e[:m], de)
+            cmd, log = self._cascade(q, qd, states, ref, dls, e[:m], de, t)
         self._record(t, ref, p, R, e, log, cmd)
         return cmd
 
     def _cascade(self, q: np.ndarray, qd: np.ndarray, states: dict[str, np.ndarray], ref: Any,
-                 dls: DampedLeastSquares, e: np.ndarray, de: np.ndarray
+                 dls: DampedLeastSquares, e: np.ndarray, de: np.ndarray, t: float
                  ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
         m = len(self.rows)
         a_x = ref.accel[:m] + self.outer.update(e, de, freeze=self._saturated)
@@ -162,6 +163,12 @@ class ReferenceCascade:
         qdd, qd_ref = sol[:, 0], sol[:, 1]
         if self._redundant:  # null-space damping: (I - J⁺J) q̇ = q̇ - J⁺(J q̇)
             qdd = qdd - self.gains.null_damping * (qd - sol[:, 2])
+        if self._redundant and self.joint_path is not None:
+            # the pull towards the planned joint path, its null-space part: (I - J⁺J) z
+            q_p, qd_p = self.joint_path(t)
+            damping = self.gains.null_damping
+            z = (0.5 * damping) ** 2 * (q_p - q) + damping * qd_p
+            qdd = qdd + z - dls.solve(dls.J @ z)
         tau = self.g1.torque(q, qd, qdd, qd_ref)
         cmd = np.empty(self.n)
         log: dict[str, np.ndarray] = {}

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
@@ -105,6 +105,11 @@ class CascadeController:
             is derived from the arm (:mod:`~maniplab.control.tuning`).
         mode: "cascade" (feedback linearisation) or "pid" (the PID-only baseline).
         model: a ready analytic model of ``spec`` (saves building one).
+        joint_path: the planned joint path, ``joint_path(t) -> (q, q̇)`` each (n,) (e.g. a
+            :class:`~maniplab.control.point_to_point.MovePlan`'s ``joint_reference``): on a
+            redundant arm the task's null space pulls the joints towards it (stiffness
+            (null_damping/2)², damping null_damping), so they follow the path the planner
+            checked instead of drifting onto a limit. None: null-space damping only.
         **settings: fields of :class:`~maniplab.spec.ControlSpec` to replace, e.g. ``rate=500.0``.
 
     Attributes:
@@ -115,13 +120,16 @@ class CascadeController:
 
     def __init__(self, spec: ManipulatorSpec, trajectory: Trajectory, *,
                  gains: ControlSpec | None = None, mode: str = "cascade",
-                 model: AnalyticModel | None = None, **settings: Any) -> None:
+                 model: AnalyticModel | None = None,
+                 joint_path: Callable[[float], tuple[np.ndarray, np.ndarray]] | None = None,
+                 **settings: Any) -> None:
         if mode not in MODES:
             raise ControlError(f"unknown mode {mode!r}; expected 'cascade' or 'pid'")
         if settings:
             gains = dataclasses.replace(gains or spec.control or ControlSpec(), **settings)
         gains = resolve(spec, gains)
         self.spec, self.trajectory, self.gains, self.mode = spec, trajectory, gains, mode
+        self.joint_path = joint_path
         self.tolerances = TOLERANCES
         """(final, RMS) position error the run's health verdict allows, mm."""
         self.n = spec.n
@@ -184,14 +192,15 @@ class CascadeController:
         """A controller of the same settings with its own compiled state and log, reset; the
         analytic model (read-only) and the trajectory (frozen) are shared."""
         other = CascadeController(self.spec, self.trajectory, gains=self.gains, mode=self.mode,
-                                  model=self.model)
+                                  model=self.model, joint_path=self.joint_path)
         other.tolerances = self.tolerances
         return other
 
     def __reduce__(self) -> tuple[Any, ...]:
         """Pickled as its settings: unpickled (in a worker process) it rebuilds its compiled
         state, and its analytic model from the model cache, reset."""
-        return (_rebuild, (self.spec, self.trajectory, self.gains, self.mode, self.tolerances))
+        return (_rebuild, (self.spec, self.trajectory, self.gains, self.mode, self.tolerances,
+                           self.joint_path))
 
     @property
     def reference(self) -> Trajectory:
@@ -235,7 +244,7 @@ class CascadeController:
         if self._pinned.any():  # a pinned cylinder's cap side goes where a lumped one's ΔP does
             dP = np.where(self._pinned, states["pA"], 0.0 if dP is None else dP)
             pB = np.where(self._pinned, states["pB"], 0.0)
-        cmd = self._c.sample(t, ref, q, qd, dP, pB)
+        cmd = self._c.sample(t, ref, q, qd, dP, pB, self._posture(t))
         if not self._python:
             self._c.commit(cmd)
             return cmd
@@ -304,8 +313,17 @@ class CascadeController:
         refs = np.empty((len(times), REF_SIZE))
         for k, t in enumerate(times):
             pack_reference(self.trajectory.sample(float(t)), refs[k])
+        postures = (None if self.joint_path is None or self.mode != "cascade" else
+                    np.array([self._posture(float(t)) for t in times]).reshape(len(times), -1))
         self._c.reserve(len(times))
-        return NativeController(self._c, times, refs)
+        return NativeController(self._c, times, refs, postures)
+
+    def _posture(self, t: float) -> np.ndarray | None:
+        """The planned joint path's (q, q̇) at t, (2n,), or None without one."""
+        if self.joint_path is None:
+            return None
+        q, qd = self.joint_path(t)
+        return np.concatenate([np.asarray(q, dtype=float), np.asarray(qd, dtype=float)])
 
     # --- the log -----------------------------------------------------------------------------
     @property
@@ -382,9 +400,10 @@ Controller.register(CascadeController)
 
 
 def _rebuild(spec: ManipulatorSpec, trajectory: Trajectory, gains: ControlSpec, mode: str,
-             tolerances: tuple[float, float]) -> CascadeController:
+             tolerances: tuple[float, float], joint_path: Any = None) -> CascadeController:
     """A pickled :class:`CascadeController` back (``CascadeController.__reduce__``)."""
-    controller = CascadeController(spec, trajectory, gains=gains, mode=mode)
+    controller = CascadeController(spec, trajectory, gains=gains, mode=mode,
+                                   joint_path=joint_path)
     controller.tolerances = tolerances
     return controller
 

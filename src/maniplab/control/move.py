@@ -111,7 +111,8 @@ def run_move(spec: ManipulatorSpec, target: Sequence[float], *, start: Sequence[
     model = model or AnalyticModel(spec)
     plan = plan_move(spec, target, start=start, duration=duration, model=model, fit_mode=fit_mode)
     if controller is None:
-        made: Any = CascadeController(spec, plan.move, mode=mode, task=plan.task, model=model)
+        made: Any = CascadeController(spec, plan.move, mode=mode, task=plan.task, model=model,
+                                      joint_path=plan.joint_reference)
         label = f"{mode}, {plan.task} task"
     else:
         made = controller(spec, plan.move)

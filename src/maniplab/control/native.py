@@ -89,7 +89,7 @@ class RunStruct(ctypes.Structure):
     """``ml_cascade_run``."""
 
     _fields_ = [("cascade", c_void_p), ("count", c_int), ("next", c_int), ("times", c_void_p),
-                ("refs", c_void_p), ("status", c_int)]
+                ("refs", c_void_p), ("status", c_int), ("postures", c_void_p)]
 
 
 _P = c_void_p
@@ -99,7 +99,7 @@ _C = Functions({
     "ml_cascade_free": (None, [_P]),
     "ml_cascade_reset": (None, [_P]),
     "ml_cascade_set_log": (None, [_P, POINTER(LogStruct)]),
-    "ml_cascade_sample": (c_int, [_P, c_double, _P, _P, _P, _P, _P, _P, _P]),
+    "ml_cascade_sample": (c_int, [_P, c_double, _P, _P, _P, _P, _P, _P, _P, _P]),
     "ml_cascade_commit": (None, [_P, _P]),
     "ml_cascade_control": (c_int, [_P, c_double, _P, _P, _P]),
 })
@@ -243,6 +243,7 @@ class CompiledCascade:
         # per-sample buffers of the Python path
         self._ref = np.zeros(REF_SIZE)
         self._q, self._qd, self._dP, self._pB = (np.zeros(n) for _ in range(4))
+        self._posture = np.zeros(2 * n)
         self.aux = np.zeros((4, n))
         self._addresses = [int(a.ctypes.data)
                            for a in (self._ref, self._q, self._qd, self._dP, self._pB)]
@@ -278,21 +279,26 @@ class CompiledCascade:
         _C().ml_cascade_reset(self.address)
 
     def sample(self, t: float, ref: Any, q: np.ndarray, qd: np.ndarray,
-               dP: np.ndarray | None, pB: np.ndarray | None = None) -> np.ndarray:
+               dP: np.ndarray | None, pB: np.ndarray | None = None,
+               posture: np.ndarray | None = None) -> np.ndarray:
         """One sample up to the commands (NaN at the Python drives' joints), (n,); the Python
         drives' inputs are then in :attr:`aux`. Call :meth:`commit` with the whole command.
 
         ``dP`` holds a lumped cylinder's ΔP and a pinned one's pA, ``pB`` a pinned one's rod
-        side (Pa, (n,) each)."""
+        side (Pa, (n,) each); ``posture`` the planned joint path's q and q̇ at t, (2n,), or
+        None."""
         self.reserve(1)
         pack_reference(ref, self._ref)
         self._q[:] = q
         self._qd[:] = qd
         self._dP[:] = 0.0 if dP is None else dP
         self._pB[:] = 0.0 if pB is None else pB
+        if posture is not None:
+            self._posture[:] = posture
         cmd = np.empty(self.n)
-        _C().ml_cascade_sample(self.address, t, *self._addresses, cmd.ctypes.data,
-                              self.aux.ctypes.data)
+        _C().ml_cascade_sample(self.address, t, *self._addresses,
+                              None if posture is None else self._posture.ctypes.data,
+                              cmd.ctypes.data, self.aux.ctypes.data)
         return cmd
 
     def commit(self, cmd: np.ndarray) -> None:
@@ -317,6 +323,7 @@ class NativeController:
         cascade: the controller's C state.
         times: the sample times the loop calls it at, s, ascending, (K,).
         refs: the reference at those times, (K, REF_SIZE).
+        postures: the planned joint path (q, q̇) at those times, (K, 2n), or None.
 
     Attributes:
         function: the address of ``ml_cascade_control``.
@@ -324,13 +331,18 @@ class NativeController:
         times: the sample times, s, (K,).
     """
 
-    def __init__(self, cascade: CompiledCascade, times: np.ndarray, refs: np.ndarray) -> None:
+    def __init__(self, cascade: CompiledCascade, times: np.ndarray, refs: np.ndarray,
+                 postures: np.ndarray | None = None) -> None:
         self.cascade = cascade
         self.times = np.ascontiguousarray(times, dtype=float)
         self._refs = np.ascontiguousarray(refs, dtype=float)
+        self._postures = (None if postures is None
+                          else np.ascontiguousarray(postures, dtype=float))
         self._run = RunStruct(cascade=cascade.address, count=len(self.times), next=0,
                               times=int(self.times.ctypes.data),
-                              refs=int(self._refs.ctypes.data), status=0)
+                              refs=int(self._refs.ctypes.data), status=0,
+                              postures=None if self._postures is None
+                              else int(self._postures.ctypes.data))
         self.function: int = _C.address("ml_cascade_control")
         self.context: int = ctypes.addressof(self._run)
 

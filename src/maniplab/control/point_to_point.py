@@ -46,6 +46,7 @@ class MovePlan:
         q_goal: the joint positions at the target (inverse kinematics within the limits), (n,).
         asked: the duration asked for, s.
         demand: what the move asks of its most demanded joint (None when no actuator can say).
+        path: the joints along the move as the planner checked them (at unit duration).
     """
 
     move: MinJerkMove
@@ -54,6 +55,21 @@ class MovePlan:
     q_goal: np.ndarray
     asked: float
     demand: Demand | None
+    path: JointPath | None = None
+
+    def joint_reference(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """The planned joint path at time t: (q, q̇), each (n,) (rad or m, and per s): the
+        joints the planner checked along the move, interpolated; the start before the move and
+        the path's end after it."""
+        if self.path is None:
+            raise ValueError("this plan has no joint path")
+        move, path = self.move, self.path
+        tau = min(max((t - move.t0) / move.duration, 0.0), 1.0)
+        q = np.array([np.interp(tau, path.tau, column) for column in path.q.T])
+        moving = move.t0 < t < move.t0 + move.duration
+        qd = (np.array([np.interp(tau, path.tau, column) for column in path.dq.T]) / move.duration
+              if moving else np.zeros(len(q)))
+        return q, qd
 
     @property
     def stretched(self) -> bool:
@@ -145,4 +161,4 @@ def plan_move(spec: ManipulatorSpec, target: Sequence[float], *, start: Sequence
             f"more than {MARGIN:.0%} of its command range; give --duration {needed:.3g} or more, "
             "or --fit stretch")
     return MovePlan(MinJerkMove(start_pose, goal, needed, t0=t0), task, q0, found.q, duration,
-                    worst)
+                    worst, path)
