@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import maniplab as ml
-from maniplab.actuators.hydraulic import PinnedCylinder
+from maniplab.actuators.hydraulic import PinnedCylinder, chambers
 from maniplab.control.metrics import _pressures, format_table
 from maniplab.control.move import run_move
 from maniplab.control.trajectory import Path as MovePath
@@ -162,3 +162,40 @@ def test_a_load_chart_charts_a_joint_without_limits_all_round() -> None:
     del boom["joints"][0]["limits"]
     q = load_chart(ml.ManipulatorSpec.from_dict(boom), points=5).q[:, 0]
     assert q.min() == pytest.approx(-np.pi) and np.ptp(q) > 1.5 * np.pi
+
+
+def test_the_pinned_law_takes_each_chambers_dead_volume_and_no_relief_when_none() -> None:
+    """Kills, in ``chambers_law`` (actuators/hydraulic/chambers.py), ``dead_volumes[0]`` ->
+    ``[1]`` (every built-in has equal ones) and ``relief_pressure or 0.0`` -> ``or 1`` (a
+    relief at 1 Pa). With the valve closed and no leakage, dpA/dt = -E A_A ṡ / (V_A0 + A_A y)
+    and the force of the model is pA A_A - pB A_B at pressures above every relief setting."""
+    data = ml.builtin_spec("patu655").to_dict()
+    lift = next(j for j in data["joints"] if j["name"] == "lift")
+    lift["actuator"]["cylinder"]["dead_volumes"] = [1.0e-4, 6.0e-4]
+    lift["actuator"]["relief_pressure"] = None
+    lift["actuator"]["leakage"] = 0.0
+    spec = ml.ManipulatorSpec.from_dict(data)
+    cylinder = model_of(spec.joint("lift"))
+    assert isinstance(cylinder, PinnedCylinder)
+    p = cylinder.params
+    c, q, sdot = p.cylinder, -0.3, 0.01
+    s = float(cylinder.geometry.length(q))
+    rate_a = chambers.rates(cylinder.law, np.array([5e6, 1e6, 0.0]), 0.0, s, sdot)[0]
+    volume_a = 1.0e-4 + c.cap_area * (s - c.min_length)
+    assert rate_a == pytest.approx(-p.bulk_modulus * c.cap_area * sdot / volume_a, rel=1e-12)
+    x = np.array([2.0e7, 1.0e6, 0.0])  # beyond any relief setting: none clamps it
+    r = float(cylinder.geometry.arm(q))
+    force = cylinder.force(x, 0.0, q, 0.0)
+    assert force == pytest.approx((2.0e7 * c.cap_area - 1.0e6 * c.rod_area) * r, rel=1e-12)
+
+
+def test_a_lumped_cylinders_steady_flow_is_the_pistons_and_the_leakage() -> None:
+    """Kills ``float(out[1])`` -> ``float(out[2])`` in ``cylinder_steady`` (valve.py): the
+    steady state's flow Q = A v + Le ΔP (no relief flow below the relief), not the current."""
+    cylinder = model_of(ml.builtin_spec("crane3").joint("luff"))
+    p = cylinder.params
+    steady = cylinder.steady(2000.0, -0.3, 0.05)
+    dP, flow = steady.x
+    assert dP == pytest.approx(2000.0 / p.area, rel=1e-12)
+    assert flow == pytest.approx(p.area * 0.05 + p.leakage * dP, rel=1e-9)
+    assert abs(steady.u) < p.current_limit
