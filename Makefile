@@ -4,6 +4,8 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 FMPY := .venv-fmpy/bin/fmpy
+# apt-get waits up to 10 minutes for a dpkg lock another installer holds, instead of failing
+APT := apt-get -o DPkg::Lock::Timeout=600
 
 .PHONY: demo test lint docs clean browser octave
 
@@ -28,14 +30,14 @@ test: lint browser octave $(FMPY)
 
 # the GUI's tests drive a real headless browser: Debian's chromium and its driver
 browser:
-	@test -x /usr/bin/chromedriver || { [ "$$(id -u)" = 0 ] && apt-get update -qq && \
-	  apt-get install -y -qq chromium chromium-driver >/dev/null; } || \
+	@test -x /usr/bin/chromedriver || { [ "$$(id -u)" = 0 ] && $(APT) update -qq && \
+	  $(APT) install -y -qq chromium chromium-driver >/dev/null; } || \
 	  { echo "make test needs chromium and chromium-driver: sudo apt-get install chromium chromium-driver" >&2; exit 1; }
 
 # the MATLAB export's tests run the generated functions in GNU Octave (Debian's octave)
 octave:
-	@command -v octave-cli >/dev/null || { [ "$$(id -u)" = 0 ] && apt-get update -qq && \
-	  apt-get install -y -qq --no-install-recommends octave >/dev/null; } || \
+	@command -v octave-cli >/dev/null || { [ "$$(id -u)" = 0 ] && $(APT) update -qq && \
+	  $(APT) install -y -qq --no-install-recommends octave >/dev/null; } || \
 	  { echo "make test needs GNU Octave: sudo apt-get install octave" >&2; exit 1; }
 
 # the FMU's tests load it in a virtual environment that has FMPy and nothing of maniplab
