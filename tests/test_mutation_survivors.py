@@ -199,3 +199,19 @@ def test_a_lumped_cylinders_steady_flow_is_the_pistons_and_the_leakage() -> None
     assert dP == pytest.approx(2000.0 / p.area, rel=1e-12)
     assert flow == pytest.approx(p.area * 0.05 + p.leakage * dP, rel=1e-9)
     assert abs(steady.u) < p.current_limit
+
+
+def test_limits_at_the_very_ends_of_the_stroke_are_accepted() -> None:
+    """Kills ``s.min() < shortest - slack`` -> ``shortest + slack`` in the stroke check
+    (geometry.py): limits that need the cylinder exactly from its shortest to its longest (the
+    range the stroke allows, computed) are accepted, as the check's tolerance intends."""
+    spec = ml.builtin_spec("patu655")
+    cylinder = model_of(spec.joint("lift"))
+    assert isinstance(cylinder, PinnedCylinder)
+    c = cylinder.params.cylinder
+    low, high = cylinder.geometry.span(c.min_length, c.max_length, 0.0)
+    data = spec.to_dict()
+    lift = next(j for j in data["joints"] if j["name"] == "lift")
+    lift["limits"] = [float(low), float(high)]
+    stretched = ml.ManipulatorSpec.from_dict(data)
+    assert stretched.joint("lift").limits == (low, high)
