@@ -12,6 +12,7 @@ import maniplab as ml
 from maniplab.actuators.hydraulic import PinnedCylinder, chambers
 from maniplab.control.metrics import _pressures, format_table
 from maniplab.control.move import run_move
+from maniplab.control.pid import PID
 from maniplab.control.trajectory import Path as MovePath
 from maniplab.control.trajectory import Pose, segment_placement
 from maniplab.fmu.variables import variables
@@ -215,3 +216,15 @@ def test_limits_at_the_very_ends_of_the_stroke_are_accepted() -> None:
     lift["limits"] = [float(low), float(high)]
     stretched = ml.ManipulatorSpec.from_dict(data)
     assert stretched.joint("lift").limits == (low, high)
+
+
+def test_the_tracking_time_follows_astrom_and_hagglunds_rule_for_a_small_kd() -> None:
+    """Kills ``self.kd > 0.0`` -> ``> 1`` in ``PID._tracking_time`` (control/pid.py): with a
+    derivative, however small its gain, Tt = sqrt(Kd/Ki) (module docstring), not Kp/Ki; the
+    anti-windup then bleeds the integrator by (u - v)/Tt per second."""
+    pid = PID(3.0, 2.0, 0.5, dt=0.01, limits=(-1.0, 1.0))
+    assert pid.tracking_time == pytest.approx([0.5])
+    u = pid.update([1.0])  # v = 3 (no derivative kick on the first sample), u = 1
+    assert u == pytest.approx([1.0])
+    assert pid.integral == pytest.approx(0.01 * (2.0 * 1.0 + (1.0 - 3.0) / 0.5))
+    assert PID(3.0, 2.0, dt=0.01).tracking_time == pytest.approx([1.5])  # no derivative: Kp/Ki
