@@ -168,7 +168,7 @@ def test_a_load_chart_charts_a_joint_without_limits_all_round() -> None:
 def test_the_pinned_law_takes_each_chambers_dead_volume_and_no_relief_when_none() -> None:
     """Kills, in ``chambers_law`` (actuators/hydraulic/chambers.py), ``dead_volumes[0]`` ->
     ``[1]`` (every built-in has equal ones) and ``relief_pressure or 0.0`` -> ``or 1`` (a
-    relief at 1 Pa). With the valve closed and no leakage, dpA/dt = -E A_A ṡ / (V_A0 + A_A y)
+    relief at 1 Pa), and ``np.empty(3)`` -> ``np.empty(6)`` in ``rates``. With the valve closed and no leakage, dpA/dt = -E A_A ṡ / (V_A0 + A_A y)
     and the force of the model is pA A_A - pB A_B at pressures above every relief setting."""
     data = ml.builtin_spec("patu655").to_dict()
     lift = next(j for j in data["joints"] if j["name"] == "lift")
@@ -181,7 +181,9 @@ def test_the_pinned_law_takes_each_chambers_dead_volume_and_no_relief_when_none(
     p = cylinder.params
     c, q, sdot = p.cylinder, -0.3, 0.01
     s = float(cylinder.geometry.length(q))
-    rate_a = chambers.rates(cylinder.law, np.array([5e6, 1e6, 0.0]), 0.0, s, sdot)[0]
+    rates = chambers.rates(cylinder.law, np.array([5e6, 1e6, 0.0]), 0.0, s, sdot)
+    assert rates.shape == (3,)  # (dpA/dt, dpB/dt, dx/dt), as documented
+    rate_a = rates[0]
     volume_a = 1.0e-4 + c.cap_area * (s - c.min_length)
     assert rate_a == pytest.approx(-p.bulk_modulus * c.cap_area * sdot / volume_a, rel=1e-12)
     x = np.array([2.0e7, 1.0e6, 0.0])  # beyond any relief setting: none clamps it
