@@ -15,8 +15,10 @@ from maniplab.control.move import run_move
 from maniplab.control.pid import PID
 from maniplab.control.trajectory import Path as MovePath
 from maniplab.control.trajectory import Pose, segment_placement
+from maniplab.errors import SpecError
 from maniplab.fmu.variables import variables
 from maniplab.friction import steady_force
+from maniplab.identification.parameters import parse_parameters
 from maniplab.loadchart import load_chart
 from maniplab.sim.plant import Plant
 from maniplab.spec import model_of
@@ -230,3 +232,14 @@ def test_the_tracking_time_follows_astrom_and_hagglunds_rule_for_a_small_kd() ->
     assert u == pytest.approx([1.0])
     assert pid.integral == pytest.approx(0.01 * (2.0 * 1.0 + (1.0 - 3.0) / 0.5))
     assert PID(3.0, 2.0, dt=0.01).tracking_time == pytest.approx([1.5])  # no derivative: Kp/Ki
+
+
+def test_a_parameter_by_joint_index_and_one_past_the_last_joint() -> None:
+    """Kills ``index < spec.n`` -> ``<=`` in ``_by_name`` (identification/parameters.py): a
+    joint named by its index resolves to its name, and the index one past the last joint is a
+    one-line SpecError, not an IndexError."""
+    spec = ml.builtin_spec("crane3")
+    (parameter,) = parse_parameters(["joints.1.friction.coulomb"], spec)
+    assert parameter.path == "joints.luff.friction.coulomb"
+    with pytest.raises(SpecError, match="joints.3.friction.coulomb"):
+        parse_parameters(["joints.3.friction.coulomb"], spec)
