@@ -79,6 +79,7 @@ GROUPS: dict[str, tuple[list[str], list[str]]] = {
                         ("tests/test_identify.py::test_a_bad_csv_is_one_line_naming_the_file_and_"
                         "column"),
                         "tests/test_identify.py::test_held_inputs_keep_each_sample_until_the_next",
+                        "tests/test_mutation_survivors.py",
                         "tests/test_identify_intervals.py",
                         ("tests/test_identify.py::test_payload_leakage_and_bulk_modulus_are_"
                         "recovered_on_crane3"),
