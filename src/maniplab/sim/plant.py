@@ -126,9 +126,10 @@ class Plant:
         self.step_limit = arm_step_limit(self.spec)
         self.dt = check_step(dt) if dt is not None else default_step(self.step_limit)
         if self.step_limit.dt < MIN_STEP:
+            where = f" in {self.spec.source}" if self.spec.source else ""
             raise InstabilityError(
                 f"{self.step_limit.describe()}, below the {MIN_STEP:g} s a simulation can afford: "
-                "check that actuator's parameters (an oil volume or valve far off?)",
+                f"check that actuator's parameters{where} (an oil volume or valve far off?)",
                 time=0.0, joint=self.step_limit.joint, dt=self.dt, resolved=True)
         ratio = self.dt / self.step_limit.dt * (1.0 - 1e-9)  # inf for a dt of 1e308
         self.substeps = max(1, math.ceil(ratio)) if ratio <= MAX_SUBSTEPS else MAX_SUBSTEPS + 1
