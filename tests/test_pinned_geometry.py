@@ -220,3 +220,16 @@ def test_a_run_records_the_stroke_and_the_cylinder_force(tmp_path: Path) -> None
     assert force == pytest.approx(run["pA"][:, 0] * area_a - run["pB"][:, 0] * area_b, rel=1e-12)
     assert run["tau_act"][:, 0] == pytest.approx(force * r, rel=1e-8)
     assert np.ptp(q) > 0.05
+
+
+def test_limits_copied_from_the_stroke_message_are_accepted() -> None:
+    """Found by mutation testing (issue 42): the message rounded the range the stroke allows to
+    6 digits outwards, so a spec using exactly those limits was refused."""
+    import re
+
+    spec = ml.builtin_spec("patu655")
+    with pytest.raises(ml.SpecError, match="which allows") as refused:
+        spec.with_overrides({"joints.lift.limits": [-0.9, 0.24]})
+    low, high = (float(x) for x in re.search(r"allows \[([-\d.e]+), ([-\d.e]+)\]",
+                                             str(refused.value)).groups())
+    spec.with_overrides({"joints.lift.limits": [low, high]})  # accepted as written

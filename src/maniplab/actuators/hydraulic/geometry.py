@@ -149,7 +149,8 @@ class PinGeometry:
                 f"the cylinder spans {shortest:.6g} to {longest:.6g} m (min_length to min_length "
                 f"+ stroke), but these pins are {low:.6g} to {high:.6g} m apart"))
         allowed = self.span(shortest, longest, near)
-        text = f"[{allowed[0]:.6g}, {allowed[1]:.6g}] {self.unit}"
+        low_text, high_text = _inward(*allowed)  # limits copied from the message are accepted
+        text = f"[{low_text}, {high_text}] {self.unit}"
         if limits is None:
             return GeometryProblem("cylinder", "a joint driven by a cylinder needs limits within "
                                    f"the range its stroke allows, {text}")
@@ -167,3 +168,16 @@ class PinGeometry:
                 f"{s.min():.6g} to {s.max():.6g} m long; it spans {shortest:.6g} to "
                 f"{longest:.6g} m (min_length to min_length + stroke), which allows {text}"))
         return None
+
+
+def _inward(low: float, high: float, digits: int = 6) -> tuple[str, str]:
+    """``low`` and ``high`` written with ``digits`` significant digits, each rounded towards the
+    inside of [low, high], so that the written range lies within the true one."""
+    def written(x: float, towards: float) -> str:
+        text = f"{x:.{digits}g}"
+        if (float(text) - x) * (towards - x) >= 0.0:  # rounded inwards (or exact)
+            return text
+        step = 10.0 ** (math.floor(math.log10(abs(x))) - digits + 1) if x else 10.0 ** -digits
+        return f"{float(text) + math.copysign(step, towards - x):.{digits}g}"
+
+    return written(low, high), written(high, low)
