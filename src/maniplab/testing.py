@@ -29,6 +29,7 @@ from maniplab.control.interface import TOLERANCES
 from maniplab.control.move import ControllerFactory, MoveResult, run_move
 from maniplab.errors import ManiplabError
 from maniplab.model import AnalyticModel
+from maniplab.sim import health
 from maniplab.spec import ManipulatorSpec
 from maniplab.workers import Threads
 
@@ -41,15 +42,11 @@ except ImportError:  # pragma: no cover - pytest is not a dependency of maniplab
 def tracking_errors(run: Any) -> tuple[float, float]:
     """(final, RMS over the move) position error of a run with a reference, mm: the end
     effector against ``p_ref`` (a controller that declares a reference records it)."""
-    reference = (run.meta or {}).get("reference")
-    if not reference or "p_ref" not in run:
+    errors = health.tracking_errors(run)
+    if errors is None:
         raise AssertionError("the run has no reference (p_ref): its controller declares none; "
                              "run it with run_move or give the controller a reference")
-    t = np.asarray(run.t)
-    error = 1e3 * np.linalg.norm(np.asarray(run["ee_pos"]) - np.asarray(run["p_ref"]), axis=1)
-    inside = (t >= reference["t0"] - 1e-9) & (t <= reference["t1"] + 1e-9)
-    rms = float(np.sqrt(np.mean(error[inside] ** 2))) if inside.any() else 0.0
-    return float(error[-1]), rms
+    return errors
 
 
 def assert_tracks(run: Any, *, final_mm: float = TOLERANCES[0],

@@ -150,13 +150,14 @@ def _pressures(run: Any) -> dict[str, Any]:
         peak = max(mine.values()) / 1e6 if mine else math.nan
         joints[name] = {"peak_pressure_MPa": peak, "pressure": label,
                         "peak_command": float(ctrl[:, j].max()) if ctrl is not None else math.nan,
-                        "command_unit": _command_unit(joint)}
+                        "command_unit": command_unit(joint)}
         if mine and not peak <= best:
             best, where = peak, f"{name} ({max(mine, key=mine.__getitem__)})"
     return {"peak_pressure_MPa": best, "peak_pressure_joint": where, "joints": joints}
 
 
-def _command_unit(joint: Any) -> str:
+def command_unit(joint: Any) -> str:
+    """The unit of the joint's actuator command (\"\" when its plugin is not loaded)."""
     try:
         return model_of(joint).command_unit
     except Exception:  # noqa: BLE001 - a stored run's plugin that is not loaded: unit unknown

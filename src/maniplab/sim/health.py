@@ -239,15 +239,25 @@ def _diverging(run: Run) -> list[Finding]:
     return []
 
 
-def _tracking(run: Run) -> list[Finding]:
+def tracking_errors(run: Run) -> tuple[float, float] | None:
+    """(final, RMS over the move) position error of the end-effector against the run's
+    reference ``p_ref``, mm; None for a run without a reference."""
     reference = (run.meta or {}).get("reference")
     if not reference or "p_ref" not in run or "ee_pos" not in run:
-        return []
+        return None
     t = np.asarray(run.t)
-    error = np.linalg.norm(np.asarray(run["ee_pos"]) - np.asarray(run["p_ref"]), axis=1)
+    error = 1e3 * np.linalg.norm(np.asarray(run["ee_pos"]) - np.asarray(run["p_ref"]), axis=1)
     inside = (t >= reference["t0"] - 1e-9) & (t <= reference["t1"] + 1e-9)
-    rms = 1e3 * float(np.sqrt(np.mean(error[inside] ** 2))) if inside.any() else 0.0
-    final = 1e3 * float(error[-1])
+    rms = float(np.sqrt(np.mean(error[inside] ** 2))) if inside.any() else 0.0
+    return float(error[-1]), rms
+
+
+def _tracking(run: Run) -> list[Finding]:
+    errors = tracking_errors(run)
+    if errors is None:
+        return []
+    final, rms = errors
+    reference = run.meta["reference"]
     misses = []
     if not final <= reference["final_mm"]:
         misses.append(f"final position error {final:.3g} mm > {reference['final_mm']:g} mm")

@@ -12,8 +12,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from maniplab.control.metrics import command_unit
 from maniplab.control.trajectory import Trajectory
-from maniplab.spec import model_of
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -44,13 +44,6 @@ def _pressures(run: Any, j: int) -> list[tuple[str, np.ndarray]]:
         if name in run and np.isfinite(np.asarray(run[name])[:, j]).any():
             out.append((name, np.asarray(run[name])[:, j]))
     return out
-
-
-def _command_unit(run: Any, j: int) -> str:
-    try:
-        return model_of(run.spec.joints[j]).command_unit
-    except Exception:  # noqa: BLE001 - a stored run's plugin that is not loaded
-        return ""
 
 
 def tracking_figure(runs: Sequence[Any], trajectory: Trajectory,
@@ -95,7 +88,7 @@ def tracking_figure(runs: Sequence[Any], trajectory: Trajectory,
             ax_i.plot(t, run["ctrl"][:, j], color=colour)
             which = ", ".join("ΔP" if n == "dP" else n for n, _ in pressures) or "no pressure"
             ax_p.set_title(f"{name}: {which} [MPa]")
-            unit = _command_unit(run, j)
+            unit = command_unit(run.spec.joints[j])
             ax_i.set_title(f"{name}: command [{unit}]" if unit else f"{name}: command")
             ax_i.set_xlabel("t [s]")
             if len(pressures) > 1 and k == 0:
