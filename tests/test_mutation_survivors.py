@@ -3,10 +3,12 @@ equivalent: each names the change it kills (docs/about/development.md, "Mutation
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
 import pytest
+from scipy.optimize import brentq
 
 import maniplab as ml
 from maniplab.actuators.hydraulic import PinnedCylinder, chambers
@@ -19,7 +21,7 @@ from maniplab.errors import SpecError
 from maniplab.fmu.variables import variables
 from maniplab.friction import steady_force
 from maniplab.identification.parameters import parse_parameters
-from maniplab.loadchart import load_chart
+from maniplab.loadchart import Statics, load_chart
 from maniplab.sim.plant import Plant
 from maniplab.spec import model_of
 
@@ -243,3 +245,74 @@ def test_a_parameter_by_joint_index_and_one_past_the_last_joint() -> None:
     assert parameter.path == "joints.luff.friction.coulomb"
     with pytest.raises(SpecError, match="joints.3.friction.coulomb"):
         parse_parameters(["joints.3.friction.coulomb"], spec)
+
+
+def test_a_steady_retraction_under_a_pull_near_the_supply_pressure() -> None:
+    """Kills ``(f + Ps * A_B) / A_A`` -> ``(f + Ps / A_B) / A_A`` in ``SteadyFlows._grid``
+    (chamber_steady.py): PATU 655's lift holding a pull that takes the rod side to 0.1 MPa below
+    the supply with the cap side at tank, retracting at 0.01 rad/s. P->B and A->T then both
+    work across small drops, and the cap side settles some 47 kPa above tank. The scan for pA
+    up to the pA at which pB reaches Ps finds it; one up to Ps takes steps of 123 kPa, and its
+    first (from tank, where the A edge passes nothing) is dropped: no steady state, an infinite
+    current. Here the flow balances of chambers.h, solved the other way round (the opening from
+    B's, pA a root of A's), give the steady state."""
+    cylinder, q, v = _lift(), -0.4, 0.01
+    p, c = cylinder.params, cylinder.params.cylinder
+    aa, ab, ps, pt, le = c.cap_area, c.rod_area, p.supply_pressure, p.tank_pressure, p.leakage
+    edge = 0.5 * p.valve.nominal_pressure_drop  # rated across two edges
+    ka = p.valve.nominal_flow / math.sqrt(edge)
+    kb = p.valve.flow_ratio * ka
+    laminar = 0.05 * edge
+
+    def g(dp: float) -> float:  # the orifice's root, laminar below the transition
+        return dp / (dp * dp + laminar * laminar) ** 0.25
+
+    r = float(cylinder.geometry.arm(q))
+    sdot = r * v  # < 0: retracting (x < 0: P->B feeds B, A->T drains A)
+    pull = pt * aa - (ps - 1e5) * ab  # pA A_A - pB A_B, N
+
+    def pressures_and_opening(pa: float) -> tuple[float, float]:
+        pb = (pa * aa - pull) / ab
+        need_b = -ab * sdot - le * (pa - pb)  # > 0: into B
+        return pb, -need_b / (kb * g(ps - pb))  # K_B |x| g(Ps - pB) = need_b
+
+    def a_balance(pa: float) -> float:  # what A gets through A->T minus what it needs
+        pb, x = pressures_and_opening(pa)
+        return -ka * -x * g(pa - pt) - (aa * sdot + le * (pa - pb))
+
+    top = (pull + ps * ab) / aa  # pB = Ps: B's edge passes nothing
+    pa = brentq(a_balance, pt, top - 1.0, xtol=1e-6, rtol=1e-14)
+    pb, x = pressures_and_opening(pa)
+    assert sdot < 0.0 and -1.0 < x < 0.0 and 1e4 < pa - pt < 1e5 and pb < ps
+    steady = cylinder.steady(pull * r, q, v)
+    assert steady.x == pytest.approx([pa, pb, x], rel=1e-6)
+    assert steady.u == pytest.approx(x * p.valve.current_limit, rel=1e-6)
+
+
+GANTRY = {  # slides that move the payload through the base's vertical axis
+    "name": "gantry",
+    "joints": [{"name": "travel", "type": "P", "axis": "x", "limits": [-3.0, 5.0],
+                "body": {"mass": 3000.0}, "actuator": {"type": "torque", "limit": 1e5}},
+               {"name": "traverse", "type": "P", "axis": "y", "limits": [-5.0, 3.0],
+                "body": {"mass": 1200.0}, "actuator": {"type": "torque", "limit": 1e5}},
+               {"name": "hoist", "type": "P", "axis": "z", "limits": [-3.0, 0.0],
+                "body": {"mass": 500.0}, "actuator": {"type": "torque", "limit": 1e5}}],
+    "end_effector": {"mass": 2000.0, "offset": [0.0, 0.0, -0.5]},
+}
+
+
+def test_a_slide_through_the_base_axis_is_not_idle() -> None:
+    """Kills ``np.linspace(low, high, 5)[1:-1]`` -> ``[1:-2]`` and -> ``[2:-1]`` in
+    ``Statics.idle_joints`` (loadchart.py): a gantry's horizontal slides carry no load, and the
+    payload's height does not depend on them, but they move it towards and away from the base's
+    vertical axis: reach = sqrt(x² + y²). The travel's interior values -1, 1, 3 m give reaches
+    |x| = 1, 1, 3 (the traverse's -3, -1, 1 m: 3, 1, 1), so a check of only the first two
+    (only the last two) calls the travel (the traverse) idle and charts it at one value."""
+    spec = ml.ManipulatorSpec.from_dict(GANTRY)
+    assert Statics(spec).idle_joints() == frozenset()
+    chart = load_chart(spec, points=3)
+    x, y = chart.q[:, 0], chart.q[:, 1]
+    assert len(chart.q) == 27
+    assert sorted(set(x)) == pytest.approx([-1.0, 1.0, 3.0])
+    assert sorted(set(y)) == pytest.approx([-3.0, -1.0, 1.0])
+    np.testing.assert_allclose(chart.reach, np.hypot(x, y), atol=1e-12)
