@@ -88,6 +88,13 @@ def tune(spec: ml.ManipulatorSpec, model: ml.AnalyticModel, move: ml.MinJerkMove
     return JointPIDGains(kp=best["kp"], ki=best["ki"], kd=best["kd"])
 
 
+def _per_joint(gain: float | tuple[float, ...] | None) -> str:
+    """A gain for every joint, or one per joint, as text."""
+    if isinstance(gain, tuple):
+        return "[" + ", ".join(f"{g:.3g}" for g in gain) + "]"
+    return f"{gain:g}"
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     args = parse_args(__doc__.splitlines()[0], argv, tune=True)
     spec = ml.builtin_spec("erector")
@@ -95,7 +102,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     move = acceptance_move(model, short=args.short)
     path = placement_path(model, short=args.short)
     gains = tune(spec, model, move, path, args.output) if args.tune else resolve(spec).pid_only
-    print(f"PID-only gains: kp={gains.kp:g} /s, ki={gains.ki:g} /s², kd={gains.kd:g}")
+    print(f"PID-only gains: kp={_per_joint(gains.kp)} /s, ki={_per_joint(gains.ki)} /s², "
+          f"kd={_per_joint(gains.kd)}")
     cases = [run_case(spec, move, MOVE_Q0, label="cascade", task="position", model=model),
              run_case(spec, move, MOVE_Q0, label="PID only", mode="pid", task="position",
                       pid_only=gains, model=model)]

@@ -42,6 +42,8 @@ def test_control_command_runs_a_move_and_prints_the_table(tmp_path: Path,
     (["--target", "5,0,1", "--start", "0,0"], "--start '0,0': expected 3"),
     (["--target", "5,0,1", "--start", "0,0,5"], "outside its limits"),
     (["--target", "5,0,1", "--duration", "-1"], "duration must be > 0"),
+    (["--target", "5,0,1", "--set", "control.pid_only.kp=[1, 2]"], "pid_only.kp has 2 gains"),
+    (["--target", "5,0,1", "--set", "3"], "--set '3': expected PATH=VALUE"),
 ])
 def test_control_command_bad_input_is_one_line_exit_2(argv: list[str], words: str,
                                                        capsys: pytest.CaptureFixture) -> None:
@@ -52,6 +54,15 @@ def test_control_command_bad_input_is_one_line_exit_2(argv: list[str], words: st
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("maniplab control: ")
     assert words in err, err
+
+
+def test_an_abbreviated_option_is_refused(capsys: pytest.CaptureFixture) -> None:
+    """``--set`` once meant ``--settle`` to argparse; no option may be abbreviated."""
+    with pytest.raises(SystemExit) as info:
+        main(["control", "crane3", "--target", "5,0,1", "--duration", "1", "--sett", "3"])
+    assert info.value.code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "unrecognized arguments: --sett 3" in err, err
 
 
 def test_out_of_reach(capsys: pytest.CaptureFixture) -> None:

@@ -114,3 +114,13 @@ def test_vector_gains_broadcast_and_reset() -> None:
 def test_bad_arguments(kwargs: dict, message: str) -> None:
     with pytest.raises(ControlError, match=message):
         PID(1.0, 1.0, **kwargs)
+
+
+def test_feedforward_is_added_before_the_limits_and_the_anti_windup_sees_it() -> None:
+    # kp = 1, ki = 1 (Tt = kp/ki = 1 s), h = 0.1, limits ±1, feed-forward 0.8:
+    # k0: e = 0.5 -> v = 0.5 + 0 + 0.8 = 1.3, u = 1, I = 0.1 (0.5 + (1 - 1.3)/1) = 0.02
+    # k1: e = 0.1 -> v = 0.1 + 0.02 + 0.8 = 0.92, u = 0.92, I = 0.02 + 0.1 (0.1) = 0.03
+    pid = PID(1.0, 1.0, dt=0.1, limits=(-1.0, 1.0))
+    out = [float(pid.update(np.array([e]), feedforward=0.8)[0]) for e in (0.5, 0.1)]
+    assert out == pytest.approx([1.0, 0.92])
+    assert pid.integral[0] == pytest.approx(0.03)

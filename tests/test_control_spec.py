@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import maniplab as ml
@@ -53,6 +54,9 @@ def test_section_with_defaults_round_trips(tmp_path: Path) -> None:
     ("control: {valve_min_root: 2}", "control.valve_min_root", "<= 1"),
     ("control: {coulomb_feedforward: maybe}", "control.coulomb_feedforward", "true or false"),
     ("control: {rat: 5}", "control.rat", "did you mean 'rate'"),
+    ("control: {pid_only: {kp: [1.0, -2.0]}}", "control.pid_only.kp",
+     "expected a number >= 0 or a list of one per joint"),
+    ("control: {pid_only: {ki: [1.0, 2.0]}}", "control", "pid_only.ki has 2 gains for 1 joints"),
 ])
 def test_bad_control_section_names_file_and_field(tmp_path: Path, text: str, field: str,
                                                   words: str) -> None:
@@ -72,6 +76,19 @@ def test_overrides_reach_the_control_section() -> None:
     assert tuned.control.position == ControlSpec().position
     with pytest.raises(ml.SpecError, match="did you mean 'pressure'"):
         spec.with_overrides({"control.pressur.bandwidth": 1.0})
+
+
+def test_per_joint_baseline_gains_round_trip_and_reach_the_controller(tmp_path: Path) -> None:
+    spec = ml.builtin_spec("crane3").with_overrides({"control.pid_only.kp": [0.5, 1.0, 2.0],
+                                                    "control.pid_only.ki": 0.25})
+    out = tmp_path / "crane3.yaml"
+    spec.dump(out)
+    assert ml.load_spec(out) == spec and spec.control.pid_only.kp == (0.5, 1.0, 2.0)
+    move = ml.MinJerkMove(ml.Pose([5.0, 0.0, 1.0], np.eye(3)), ml.Pose([5.0, 0.5, 1.0], np.eye(3)),
+                          1.0)
+    pid = ml.CascadeController(spec, move, mode="pid").joint_pid
+    np.testing.assert_array_equal(pid.kp, [0.5, 1.0, 2.0])
+    np.testing.assert_array_equal(pid.ki, [0.25, 0.25, 0.25])
 
 
 def test_constructed_in_python_is_validated() -> None:

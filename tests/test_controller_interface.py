@@ -80,10 +80,11 @@ def test_a_continuous_or_mis_sized_system_is_refused_in_one_line(bad) -> None:
 
 
 class PIDFactory:
-    """A factory as ``maniplab control --controller`` takes it: (spec, move) -> controller."""
+    """A factory as ``maniplab control --controller`` takes it: (spec, move) -> controller, and
+    the planned joint path, which the baseline tracks, when it asks for it."""
 
-    def __call__(self, spec, move):
-        return CascadeController(spec, move, mode="pid")
+    def __call__(self, spec, move, *, joint_path=None):
+        return CascadeController(spec, move, mode="pid", joint_path=joint_path)
 
 
 def test_run_move_takes_your_controller_and_judges_it_on_its_reference() -> None:

@@ -85,7 +85,7 @@ FMPy), and ``control``, ``control-pid`` and ``identify`` run on the arms of :dat
 FMPY_ARMS = ("arms/electrohydraulic", "arms/drill_boom")
 _CONTROL_ARMS = ("crane3", "planar2", "erector", "arms/drill_boom", "arms/electric2",
                  "arms/electrohydraulic", "arms/pipe_handler", "arms/mixed/forestry_rotator")
-QUICK = {"control": _CONTROL_ARMS, "control-pid": _CONTROL_ARMS,
+QUICK = {"control": _CONTROL_ARMS, "control-pid": (*_CONTROL_ARMS, "arms/excavator"),
          "identify": ("planar2", "arms/electrohydraulic")}
 
 
@@ -99,9 +99,6 @@ class Expected(NamedTuple):
     why: str
 
 
-_PID = Expected("refused", "the move missed its tolerances",
-                "the PID-only baseline misses this move's 2 mm / 5 mm tolerances (exit 3: a "
-                "valve saturates or a joint lags; the cascade meets them)")
 _STRAIGHT = Expected("refused", "the straight path leaves the workspace",
                      "slew and boom place the tip, the rotator turns about the tip's own axis: "
                      "two joints for three coordinates, no straight Cartesian path")
@@ -121,11 +118,6 @@ EXPECTED: dict[tuple[str, str], Expected] = {
     ("arms/mixed/forestry_grapple", "control-pid"): _STRAIGHT,
     ("arms/mixed/forestry_rotator", "control"): _STRAIGHT,
     ("arms/mixed/forestry_rotator", "control-pid"): _STRAIGHT,
-    **{(arm, "control-pid"): _PID for arm in (
-        "erector", "erector_pinned", "excavator", "patu655", "planar2", "arms/drill_boom",
-        "arms/electrohydraulic", "arms/erector7", "arms/excavator", "arms/gantry",
-        "arms/knuckle_crane", "arms/loader_crane", "arms/pipe_handler",
-        "arms/mixed/forestry_pump")},
 }
 
 
@@ -483,20 +475,22 @@ def cell_tune(arm: str, work: Path) -> str:
     return f"{control['rate']:.0f} Hz"
 
 
-def _control(arm: str, work: Path, *mode: str) -> str:
-    """A move of a tenth of each joint's range (its end-effector) in 1.5 s: met within 2 mm of
-    the target by the analytic model's forward kinematics."""
+def _control(arm: str, work: Path, *options: str, settle: float = 0.3,
+             within: float = 2.1e-3) -> str:
+    """A move of a tenth of each joint's range (its end-effector) in 1.5 s: met within
+    ``within`` (m) of the target, ``settle`` s after the move, by the analytic model's forward
+    kinematics."""
     spec = spec_of(arm)
     target = ml.AnalyticModel(spec).fk(goal_pose(spec))[:3, 3]
     out = cli("control", ARMS[arm], f"--start={numbers(start_pose(spec))}",
-              "--target", numbers(target), "--duration", "1.5", "--settle", "0.3",
-              "--sample-dt", "0.01", *mode, "-o", str(work))
+              "--target", numbers(target), "--duration", "1.5", "--settle", str(settle),
+              "--sample-dt", "0.01", *options, "-o", str(work))
     table = json.loads(out)
     assert table["health"]["verdict"] != "failed" and (work / "control.json").exists()
     run = ml.Run.load(work / "control.npz")
     assert np.all(np.isfinite(run.q))
     miss = np.linalg.norm(ml.AnalyticModel(spec).fk(run.q[-1])[:3, 3] - target)
-    assert miss <= 2.1e-3, f"ends {miss * 1e3:.2f} mm off the target"
+    assert miss <= within, f"ends {miss * 1e3:.2f} mm off the target"
     return f"{miss * 1e3:.2f} mm"
 
 
@@ -504,8 +498,17 @@ def cell_control(arm: str, work: Path) -> str:
     return _control(arm, work)
 
 
+PID_SETTLE = 60.0
+"""s after the move the PID-only baseline is given to converge."""
+
+
 def cell_control_pid(arm: str, work: Path) -> str:
-    return _control(arm, work, "--mode", "pid")
+    """The PID-only baseline is judged on where it ends: within 5 mm of the target a minute
+    after the move (it converges slowly, each joint at its own spring's pace, and may hunt by a
+    few millimetres against Coulomb friction); its tracking during the move is far worse than
+    the cascade's and is not judged here (hence the RMS tolerance of 10 m)."""
+    return _control(arm, work, "--mode", "pid", "--tolerance", "5,10000", settle=PID_SETTLE,
+                    within=5e-3)
 
 
 def cell_loadchart(arm: str, work: Path) -> str:

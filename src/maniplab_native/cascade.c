@@ -32,7 +32,7 @@ struct ml_cascade {
   /* scratch */
   ml_dls dls;
   double H[16], E[9], bias_acc[6];
-  double *J, *Jp, *Jm, *qshift, *Mb, *rhs, *sol, *inv_supply, *dP, *pB, *u, *err, *rate,
+  double *J, *Jp, *Jm, *qshift, *Mb, *rhs, *sol, *inv_supply, *dP, *pB, *u, *err, *rate, *ff,
       *spare_row;
 };
 
@@ -133,6 +133,7 @@ static int layout(ml_cascade* c, const ml_cascade_config* config, double* pool) 
   c->u = carve(&k, n > 6 ? n : 6);  /* the outer loop's too (rows <= 6) */
   c->err = carve(&k, n);
   c->rate = carve(&k, n);
+  c->ff = carve(&k, n);
   c->spare_row = carve(&k, 36 + 4 * n);  /* a sample's row when the log has no room */
   double* scratch = carve(&k, ml_dls_scratch(m, n));
   if (scratch) ml_dls_init(&c->dls, m, n, scratch);
@@ -203,17 +204,19 @@ static double clip(double x, double lo, double hi) {
   return x;
 }
 
-/* One PID sample with the measured error rate (PID.update(error, rate, freeze=freeze)):
-   d = rate at the first sample, then filtered; u = clip(Kp e + I + Kd d); the integrator takes
+/* One PID sample with the measured error rate (PID.update(error, rate, freeze=freeze,
+   feedforward=ff)): d = rate at the first sample, then filtered; u = clip(Kp e + I + Kd d + ff)
+   (ff NULL: none); the integrator takes
    h (Ki e + (u - v)/Tt) unless frozen (components with Ki = 0 have none). */
 static void pid_update(const ml_pid_gains* g, pid_state* s, int size, int any_integral, double dt,
-                       const double* e, const double* rate, int freeze, double* u) {
+                       const double* e, const double* rate, const double* ff, int freeze,
+                       double* u) {
   for (int i = 0; i < size; i++) {
     s->rate[i] = s->started ? g->filter_a * s->rate[i] + g->filter_b * rate[i] : rate[i];
   }
   s->started = 1;
   for (int i = 0; i < size; i++) {
-    double v = g->kp[i] * e[i] + s->integral[i] + g->kd[i] * s->rate[i];
+    double v = g->kp[i] * e[i] + s->integral[i] + g->kd[i] * s->rate[i] + (ff ? ff[i] : 0.0);
     double out = v, step;
     if (g->limited) {
       out = clip(v, g->lo[i], g->hi[i]);
@@ -403,7 +406,7 @@ static void cascade_mode(ml_cascade* c, const double* ref, const double* q, cons
   double* rhs = c->rhs;
   double* sol = c->sol;
   /* outer loop: a_x = accel_d + PID(e, de) */
-  pid_update(&g->outer, &c->outer, m, c->any_integral_outer, g->dt, e, de, c->saturated, c->u);
+  pid_update(&g->outer, &c->outer, m, c->any_integral_outer, g->dt, e, de, NULL, c->saturated, c->u);
   for (int i = 0; i < 6; i++) row.a_x[i] = i < m ? ref[ML_REF_ACCEL + i] + c->u[i] : NAN;
   /* qdd = J+ (a_x - Jdot qd), qd_ref = J+ twist_d, and J+ (J qd) for the null space */
   bias_acceleration(c, q, qd, c->bias_acc);
@@ -455,21 +458,37 @@ static void cascade_mode(ml_cascade* c, const double* ref, const double* q, cons
   c->p_started = 1;
 }
 
-static void pid_mode(ml_cascade* c, const double* q, const double* qd, const double* e,
-                     const double* de, double* cmd, double* aux, row_view row) {
+static void pid_mode(ml_cascade* c, const double* ref, const double* q, const double* qd,
+                     const double* e, const double* de, const double* posture, double* cmd,
+                     double* aux, row_view row) {
   const ml_cascade_config* g = &c->cfg;
   int n = g->n, m = g->rows;
-  /* joint errors and their rates by the same least squares, a PID per joint: joint speeds */
-  for (int i = 0; i < m; i++) {
-    c->rhs[2 * i] = e[i];
-    c->rhs[2 * i + 1] = de[i];
+  const double* ff = c->ff;
+  int moving = 0;
+  if (posture) { /* a PID per joint on the planned joint path, its speed fed forward; the
+                    integrators wait for the path to stop (no wind-up from a joint's lag) */
+    for (int j = 0; j < n; j++) {
+      c->err[j] = posture[j] - q[j];
+      c->rate[j] = posture[n + j] - qd[j];
+      moving |= posture[n + j] != 0.0;
+    }
+    ff = posture + n;
+  } else { /* the task's error, its rate and its reference speed by the same least squares */
+    for (int i = 0; i < m; i++) {
+      c->rhs[3 * i] = e[i];
+      c->rhs[3 * i + 1] = de[i];
+      c->rhs[3 * i + 2] = ref[ML_REF_TWIST + i];
+      moving |= ref[ML_REF_TWIST + i] != 0.0;
+    }
+    ml_dls_solve(&c->dls, c->rhs, 3, c->sol);
+    for (int j = 0; j < n; j++) {
+      c->err[j] = c->sol[3 * j];
+      c->rate[j] = c->sol[3 * j + 1];
+      c->ff[j] = c->sol[3 * j + 2];
+    }
   }
-  ml_dls_solve(&c->dls, c->rhs, 2, c->sol);
-  for (int j = 0; j < n; j++) {
-    c->err[j] = c->sol[2 * j];
-    c->rate[j] = c->sol[2 * j + 1];
-  }
-  pid_update(&g->joint, &c->joint, n, c->any_integral_joint, g->dt, c->err, c->rate, 0, c->u);
+  pid_update(&g->joint, &c->joint, n, c->any_integral_joint, g->dt, c->err, c->rate, ff, moving,
+             c->u);
   /* a force source (or Python's drive) needs the joint's inertia for its velocity loop */
   int inertia = c->python_drives > 0;
   for (int j = 0; j < n; j++) inertia |= g->drive[j] == ML_DRIVE_FORCE;
@@ -563,7 +582,7 @@ int ml_cascade_sample(ml_cascade* c, double t, const double* ref, const double* 
   }
   ml_dls_factor(&c->dls, c->J, g->weights, g->dls_damping, g->dls_threshold);
   if (g->mode == ML_MODE_PID) {
-    pid_mode(c, q, qd, e, de, cmd, aux, row);
+    pid_mode(c, ref, q, qd, e, de, posture, cmd, aux, row);
   } else {
     cascade_mode(c, ref, q, qd, dP, pB, posture, e, de, Jqd, cmd, aux, row);
   }

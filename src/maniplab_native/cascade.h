@@ -158,7 +158,8 @@ void ml_cascade_set_log(ml_cascade* c, ml_cascade_log* log);
    pinned one its cap side in dP and its rod side in pB (pB may be NULL when no joint has one).
    A pinned cylinder's desired load pressure goes to the row's dP_d. `posture` (2n: q, qd of the
    planned joint path at t, or NULL) pulls a redundant arm towards that path in the task's null
-   space. Returns ML_CASCADE_OK or ML_CASCADE_LOG_FULL. */
+   space; in the PID-only mode each joint's PID tracks it (its speed fed forward) instead of the
+   task error's least-squares image. Returns ML_CASCADE_OK or ML_CASCADE_LOG_FULL. */
 int ml_cascade_sample(ml_cascade* c, double t, const double* ref, const double* q,
                       const double* qd, const double* dP, const double* pB,
                       const double* posture, double* cmd, double* aux);

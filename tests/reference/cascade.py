@@ -144,7 +144,7 @@ class ReferenceCascade:
                                  threshold=self.gains.dls_threshold, weights=self.weights)
         self.lam2.append(dls.lam2)
         if self.mode == "pid":
-            cmd, log = self._pid_only(q, qd, states, dls, e[:m], de)
+            cmd, log = self._pid_only(q, qd, states, dls, e[:m], de, t)
         else:
             cmd, log = self._cascade(q, qd, states, ref, dls, e[:m], de, t)
         self._record(t, ref, p, R, e, log, cmd)
@@ -184,10 +184,17 @@ class ReferenceCascade:
         return cmd, {"a_x": a_full, "qdd_d": qdd, "tau_d": tau, **log}
 
     def _pid_only(self, q: np.ndarray, qd: np.ndarray, states: dict[str, np.ndarray],
-                  dls: DampedLeastSquares, e: np.ndarray, de: np.ndarray
+                  dls: DampedLeastSquares, e: np.ndarray, de: np.ndarray, t: float
                   ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-        sol = dls.solve(np.stack([e, de], axis=1))
-        u = self.joint_pid.update(sol[:, 0], sol[:, 1])  # joint speeds
+        if self.joint_path is None:  # the task's error, rate and speed by least squares
+            twist = self.trajectory.sample(t).twist[:len(e)]
+            sol = dls.solve(np.stack([e, de, twist], axis=1))
+            u = self.joint_pid.update(sol[:, 0], sol[:, 1], feedforward=sol[:, 2],
+                                      freeze=bool(np.any(twist != 0.0)))
+        else:  # each joint tracks the planned joint path, its speed fed forward, and
+            q_p, qd_p = self.joint_path(t)  # integrates once the path has stopped
+            u = self.joint_pid.update(q_p - q, qd_p - qd, feedforward=qd_p,
+                                      freeze=bool(np.any(qd_p != 0.0)))
         cmd = np.empty(self.n)
         inertia = None
         for drive in self.drives:

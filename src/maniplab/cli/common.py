@@ -19,7 +19,12 @@ its health check."""
 
 
 class Parser(argparse.ArgumentParser):
-    """argparse with one-line errors (no usage dump), exit status 2."""
+    """argparse with one-line errors (no usage dump), exit status 2, and no abbreviated options
+    (``--set`` must never be taken for ``--settle``)."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        kwargs.setdefault("allow_abbrev", False)
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str) -> NoReturn:
         self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
@@ -79,6 +84,23 @@ def spec_argument(parser: argparse.ArgumentParser) -> None:
                         help="a spec file (YAML) or the name of a built-in spec "
                              "(see 'maniplab info --list')")
     plugin_option(parser)
+
+
+def set_option(parser: argparse.ArgumentParser, help_text: str = "") -> None:
+    """``--set PATH=VALUE``, repeatable: overrides of the spec (read by :func:`spec_with_sets`)."""
+    parser.add_argument("--set", action="append", default=[], metavar="PATH=VALUE",
+                        help=help_text or "PATH=VALUE override of the spec, repeatable, e.g. "
+                                          "end_effector.mass=4000")
+
+
+def spec_with_sets(args: argparse.Namespace) -> Any:
+    """The spec of ``args.spec`` with its ``--set`` overrides (a ManipulatorSpec)."""
+    from maniplab.builtin import resolve_spec
+    from maniplab.sim.grammar import parse_assignment
+
+    spec = resolve_spec(args.spec)
+    overrides = dict(parse_assignment(text) for text in args.set)
+    return spec.with_overrides(overrides) if overrides else spec
 
 
 def plugin_option(parser: argparse.ArgumentParser) -> None:

@@ -10,7 +10,9 @@ from maniplab.cli.common import (
     SAMPLE_DT_HELP,
     output_folder,
     positive_seconds,
+    set_option,
     spec_argument,
+    spec_with_sets,
 )
 
 
@@ -58,6 +60,8 @@ def add(sub: argparse._SubParsersAction) -> None:
     control.add_argument("-o", "--output", type=output_folder, default=Path("out/control"), metavar="DIR",
                          help="folder for control.npz, control.json, control.png "
                               "(default: out/control)")
+    set_option(control, "PATH=VALUE override of the spec, repeatable, e.g. "
+                        "control.pid_only.kp=0.5 or end_effector.mass=4000")
     control.set_defaults(func=_cmd_control)
 
 
@@ -65,7 +69,6 @@ def _cmd_control(args: argparse.Namespace) -> int:
     import json
     import sys
 
-    import maniplab as ml
     from maniplab.atomic import write_text
     from maniplab.control.loading import load_factory
     from maniplab.control.move import run_move
@@ -73,7 +76,7 @@ def _cmd_control(args: argparse.Namespace) -> int:
     from maniplab.viz.plots import save_figure
     from maniplab.viz.tracking import tracking_figure
 
-    spec = ml.resolve_spec(args.spec)
+    spec = spec_with_sets(args)
     target = parse_numbers(args.target, "--target", (3, 6))
     final, rms = parse_numbers(args.tolerance, "--tolerance", (2,))
     start = parse_numbers(args.start, "--start", (spec.n,)) if args.start else None

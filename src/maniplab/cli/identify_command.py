@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from maniplab.cli.common import output_file, spec_argument
+from maniplab.cli.common import output_file, set_option, spec_argument, spec_with_sets
 
 
 def add(sub: argparse._SubParsersAction) -> None:
@@ -30,9 +30,8 @@ def add(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--params", required=True, metavar="P1,P2,...",
                    help="dotted spec paths to fit, as for --set, each optionally with bounds: "
                         "joints.q2.friction.coulomb,end_effector.mass[0:8000]")
-    p.add_argument("--set", action="append", default=[], metavar="PATH=VALUE",
-                   help="PATH=VALUE override of the spec, repeatable: a parameter's start (the "
-                        "fit starts from the spec's values), e.g. end_effector.mass=4000")
+    set_option(p, "PATH=VALUE override of the spec, repeatable: a parameter's start (the fit "
+                  "starts from the spec's values), e.g. end_effector.mass=4000")
     p.add_argument("--signals", metavar="S1,S2",
                    help="measured signals to fit (default: all the data has of q, qd, dP, pA, pB)")
     p.add_argument("--loss", default="linear", choices=("linear", "soft_l1", "huber", "cauchy"),
@@ -47,13 +46,10 @@ def add(sub: argparse._SubParsersAction) -> None:
 
 def _cmd_identify(args: argparse.Namespace) -> int:
     from maniplab.atomic import write_text
-    from maniplab.builtin import resolve_spec
     from maniplab.identification import identify, write_figure
-    from maniplab.sim.grammar import parse_assignment
     from maniplab.spec.yaml_io import dump_yaml
 
-    overrides = dict(parse_assignment(text) for text in args.set)
-    spec = resolve_spec(args.spec).with_overrides(overrides) if overrides else args.spec
+    spec = spec_with_sets(args) if args.set else args.spec
     params = [text for text in _split(args.params) if text]
     signals = [s.strip() for s in args.signals.split(",")] if args.signals else None
     if args.suggest:

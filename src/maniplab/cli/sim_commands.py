@@ -15,6 +15,7 @@ from maniplab.cli.common import (
     plugin_option,
     positive_int,
     positive_seconds,
+    set_option,
     spec_argument,
 )
 
@@ -30,9 +31,6 @@ _INPUT_HELP = ("JOINT=SIGNAL, repeatable: valve current (A) of a hydraulic joint
                "torque (N·m) of a torque joint. SIGNAL is a number or step:A[@T0], "
                "impulse:AREA[,WIDTH][@T0], sine:A,FREQ_HZ[,PHASE][@T0], ramp:SLOPE[,T1][@T0], "
                "constant:V, joined by '+', e.g. q2=step:1.5@0.2 or q1=0.1+sine:0.05,2")
-_SET_HELP = "PATH=VALUE override of the spec, repeatable, e.g. end_effector.mass=4000"
-
-
 def add(sub: argparse._SubParsersAction) -> None:
     """Register simulate, sweep, compare, runs and crossval."""
     _add_simulate(sub)
@@ -71,7 +69,7 @@ def _add_simulate(sub: argparse._SubParsersAction) -> None:
                                    "parameters).")
     spec_argument(p)
     _run_options(p)
-    p.add_argument("--set", action="append", default=[], metavar="PATH=VALUE", help=_SET_HELP)
+    set_option(p)
     p.add_argument("--stream", action="store_true",
                    help="write the samples to the run file as the run goes, in chunks, instead "
                         "of keeping them in memory (for runs too long for the memory; the file "

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 
-from maniplab.cli.common import output_file, spec_argument
+from maniplab.cli.common import output_file, set_option, spec_argument, spec_with_sets
 
 
 def add(sub: argparse._SubParsersAction) -> None:
@@ -19,6 +19,8 @@ def add(sub: argparse._SubParsersAction) -> None:
                     "control: section, one comment line of reasoning per gain. Gains written in "
                     "the spec's control: section win over derived ones.")
     spec_argument(tune)
+    set_option(tune, "PATH=VALUE override of the spec, repeatable: the gains derived for that "
+                     "arm, e.g. end_effector.mass=4000")
     tune.add_argument("-o", "--output", type=output_file, metavar="FILE",
                       help="write a copy of the spec with the control: section filled in "
                            "(gains already in the spec kept)")
@@ -26,12 +28,11 @@ def add(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_tune(args: argparse.Namespace) -> int:
-    import maniplab as ml
     from maniplab.control.tuning import derive, resolve
     from maniplab.schema import plain
     from maniplab.spec.yaml_io import dump_yaml
 
-    spec = ml.resolve_spec(args.spec)
+    spec = spec_with_sets(args)
     reasons = derive(spec).reasons
     control = resolve(spec)
     given = spec.control is not None

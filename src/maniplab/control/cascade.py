@@ -313,7 +313,7 @@ class CascadeController:
         refs = np.empty((len(times), REF_SIZE))
         for k, t in enumerate(times):
             pack_reference(self.trajectory.sample(float(t)), refs[k])
-        postures = (None if self.joint_path is None or self.mode != "cascade" else
+        postures = (None if self.joint_path is None else
                     np.array([self._posture(float(t)) for t in times]).reshape(len(times), -1))
         self._c.reserve(len(times))
         return NativeController(self._c, times, refs, postures)
@@ -422,7 +422,7 @@ def _require_compiled(model: AnalyticModel) -> None:
                        f"must have the C backend, not {model.backend!r}")
 
 
-def _given(value: float | None) -> float:
+def _given(value: Any) -> Any:
     """A gain that :func:`~maniplab.control.tuning.resolve` has filled in."""
     assert value is not None, "resolve() fills in every gain"
     return value

@@ -4,6 +4,7 @@ does, as one function."""
 from __future__ import annotations
 
 import dataclasses
+import inspect
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -13,15 +14,15 @@ from maniplab.control.cascade import CascadeController
 from maniplab.control.interface import TOLERANCES
 from maniplab.control.metrics import TrackingMetrics, tracking_metrics
 from maniplab.control.point_to_point import MovePlan, plan_move
-from maniplab.control.trajectory import Trajectory
 from maniplab.model import AnalyticModel
 from maniplab.sim.health import Health
 from maniplab.sim.run import Run
 from maniplab.sim.simulate import simulate
 from maniplab.spec import ManipulatorSpec
 
-ControllerFactory = Callable[[ManipulatorSpec, Trajectory], Any]
-"""Makes a move's controller: ``factory(spec, move) -> controller``."""
+ControllerFactory = Callable[..., Any]
+"""Makes a move's controller: ``factory(spec, move) -> controller``; a factory with a keyword
+parameter ``joint_path`` also gets the planned joint path, ``joint_path(t) -> (q, q̇)``."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -102,7 +103,8 @@ def run_move(spec: ManipulatorSpec, target: Sequence[float], *, start: Sequence[
         controller: your own controller instead: a factory ``controller(spec, move)`` (a
             class such as a :class:`~maniplab.control.interface.Controller` subclass) given the
             arm and the planned move (a :class:`~maniplab.control.trajectory.Trajectory`),
-            returning the controller (see :mod:`~maniplab.control.interface`).
+            returning the controller (see :mod:`~maniplab.control.interface`); a factory with
+            a keyword parameter ``joint_path`` also gets the planned joint path.
         tolerances: (final, RMS) position error allowed, mm: the run's health verdict checks
             them when the controller tracks the move (declares it as its ``reference``).
         plant: the arm simulated, when it differs from the one the move is planned and the
@@ -115,7 +117,7 @@ def run_move(spec: ManipulatorSpec, target: Sequence[float], *, start: Sequence[
                                       joint_path=plan.joint_reference)
         label = f"{mode}, {plan.task} task"
     else:
-        made = controller(spec, plan.move)
+        made = _make(controller, spec, plan)
         label = f"{_name(controller)}, {plan.task} task"
     if hasattr(made, "tolerances"):
         made.tolerances = tuple(float(x) for x in tolerances)
@@ -123,6 +125,17 @@ def run_move(spec: ManipulatorSpec, target: Sequence[float], *, start: Sequence[
                    initial={"q": plan.q_start, "dP": "gravity"}, label=label,
                    sample_dt=sample_dt)
     return MoveResult(plan, run, tracking_metrics(run, plan.move, label=label, model=model))
+
+
+def _make(factory: ControllerFactory, spec: ManipulatorSpec, plan: MovePlan) -> Any:
+    """``factory(spec, move)``, with ``joint_path=`` the plan's joint path when it takes one."""
+    try:
+        takes_path = "joint_path" in inspect.signature(factory).parameters
+    except (TypeError, ValueError):  # a callable without a signature (a C function)
+        takes_path = False
+    if takes_path:
+        return factory(spec, plan.move, joint_path=plan.joint_reference)
+    return factory(spec, plan.move)
 
 
 def _name(factory: Any) -> str:

@@ -5,10 +5,11 @@ The discrete law, for a vector error e_k (one PID per component, gains broadcast
     P_k = Kp e_k
     D_k = Tf/(Tf + h) D_{k-1} + Kd/(Tf + h) (e_k - e_{k-1})      (filtered derivative, eq. 9)
           or, when the error rate ė_k is measured:  D_k = Kd d_k,  d_k = d_{k-1} + h/(Tf + h)(ė_k - d_{k-1})
-    v_k = P_k + I_k + D_k,        u_k = clip(v_k, lo, hi)                        (output limits)
+    v_k = P_k + I_k + D_k + F_k,  u_k = clip(v_k, lo, hi)                        (output limits)
     I_{k+1} = I_k + h (Ki e_k + (u_k - v_k)/Tt)               (back-calculation anti-windup, eq. 10)
 
-The derivative is the backward-Euler discretisation of Kd s/(1 + Tf s); Tf = 0 is the plain
+F_k is an optional feed-forward (e.g. the planned speed of a joint that tracks a path): it is
+part of the output the limits and the anti-windup see. The derivative is the backward-Euler discretisation of Kd s/(1 + Tf s); Tf = 0 is the plain
 difference quotient. The first sample has no derivative kick (e_{-1} = e_0). The tracking time Tt
 defaults to sqrt(Ti Td) = sqrt(Kd/Ki) when there is a derivative, else Ti = Kp/Ki (Åström and
 Hägglund's rule), and never below h; while the output is inside its limits the anti-windup term is 0.
@@ -100,7 +101,7 @@ class PID:
         """The last output before clipping (v_k), shape (m,)."""
 
     def update(self, error: ArrayLike, rate: ArrayLike | None = None, *,
-               freeze: ArrayLike | bool = False) -> np.ndarray:
+               freeze: ArrayLike | bool = False, feedforward: ArrayLike = 0.0) -> np.ndarray:
         """One sample: the output u_k for the error e_k (and optionally its measured rate).
 
         Args:
@@ -109,6 +110,7 @@ class PID:
                 difference quotient (it is still low-pass filtered with Tf).
             freeze: hold the integrator this sample (all components, or a mask (m,)):
                 conditional integration, for anti-windup when a downstream loop saturates.
+            feedforward: F_k, added to the output before the limits, scalar or (m,).
 
         Returns:
             u_k, clipped to the limits, shape (m,).
@@ -122,7 +124,7 @@ class PID:
             r = np.asarray(rate, dtype=float)
             self._d = r.copy() if first else self._a * self._d + self._b * r
         self._e_prev = e.copy()
-        v = self.kp * e + self.integral + self.kd * self._d
+        v = self.kp * e + self.integral + self.kd * self._d + np.asarray(feedforward, dtype=float)
         if self._limited:
             u = np.minimum(np.maximum(v, self.lo), self.hi)
             self.saturated = u != v

@@ -14,14 +14,20 @@ The rule, one loop inside the next, each a safe factor slower than the one it dr
    set by the controller's rate instead): kd = 3 ω_o, kp = 3 ω_o², ki = ω_o³.
 3. **Rate**: fast enough that every loop is nearly continuous, ω h <= LOOP_STEP, and at least
    RATE_MIN.
-4. **PID-only baseline**: each joint is a speed source (a valve: speed = flow / A; any other
-   actuator through a velocity loop of gain k_v = VELOCITY × kp). A valve is a speed source only
-   well below the resonance of its oil spring with the load, so the position loop's kp is
-   limited by the arm's slowest spring mode over the workspace ω_s (the eigen-frequencies of the
-   springs on M(q), the textbook limit of a hydraulic position servo, a fraction of ω_s) and by
-   the lag: kp = min(PID_SPRING × ω_s, PID_LAG / τ) (Merritt's K_v <= 2 ζ_h ω_h with ζ_h = 0.1);
-   the integral puts the loop's natural frequency sqrt(ki) at PID_NATURAL × ω_s. Without
-   springs (ideal force sources) kp is half the outer loop's frequency and ki = kp²/4.
+4. **PID-only baseline**, joint by joint: each joint is a speed source (a valve: speed = flow /
+   A; any other actuator through a velocity loop of gain k_v = VELOCITY × kp) whose PID tracks
+   the planned joint path with its speed fed forward. A valve is a speed source only well below
+   the resonance of its oil spring with the load, so each joint's kp is limited by its own
+   spring frequency ω_j = sqrt(k_j / M_jj), the lowest over the workspace (the textbook limit
+   of a hydraulic position servo, Merritt's K_v <= 2 ζ_h ω_h, taken at ζ_h = 0.1 and a gain
+   margin of 2), and by its valve's lag: kp_j = min(PID_SPRING × ω_j, PID_LAG / τ_j). The
+   integral removes what a speed source leaves at rest (the leakage under load): ki_j = kp_j²/2,
+   the pair s² + kp s + ki at damping ratio 0.71; it integrates only once the planned path has
+   stopped, so a joint that lags during the move does not wind it up (with ki = (ω/2)² against
+   a kp of ω/10, as before, the loop rang and diverged on the corpus arms). Joints without a
+   spring or a lag (ideal force sources) get half the outer loop's frequency. Against Coulomb
+   friction the loop may hunt by a few millimetres before it stops (the classic limit cycle
+   of an integrating position servo).
 
 :func:`derive` returns the gains with one line of reasoning each (what ``maniplab tune``
 prints); :func:`resolve` fills in the gains a ``control:`` section leaves out.
@@ -33,8 +39,10 @@ import dataclasses
 import math
 from typing import Any
 
+import numpy as np
+
 from maniplab.mjcf_gen import build_model
-from maniplab.mjcf_gen.timestep import spring_modes
+from maniplab.mjcf_gen.timestep import hydraulic_frequencies
 from maniplab.spec import (
     CartesianGains,
     ControlSpec,
@@ -64,12 +72,8 @@ PID_LAG = 0.2
 """kp τ of the PID-only baseline's position loop at most."""
 
 PID_SPRING = 0.1
-"""kp / ω_s of the PID-only baseline at most: Merritt's limit of a valve-controlled position
-servo, K_v <= 2 ζ_h ω_h, with the hydraulic damping ratio ζ_h = 0.1."""
-
-PID_NATURAL = 0.5
-"""sqrt(ki) / ω_s: the integral puts the position loop's natural frequency at half the slowest
-spring mode."""
+"""kp / ω_j of the PID-only baseline at most: Merritt's limit of a valve-controlled position
+servo, K_v <= 2 ζ_h ω_h, with the hydraulic damping ratio ζ_h = 0.1 and a gain margin of 2."""
 
 VELOCITY = 4.0
 """k_v / kp of the baseline's velocity loop on actuators without a speed command."""
@@ -102,7 +106,7 @@ def derive(spec: ManipulatorSpec) -> Tuning:
     """The controller's gains and rate for ``spec`` (see the module's rule)."""
     actuators = [model_of(j) for j in spec.joints]
     names = spec.joint_names
-    slowest = spring_modes(spec, build_model(spec)).slowest
+    model = build_model(spec)
     lagged = [(a.lag, j) for j, a in enumerate(actuators) if a.lag > 0.0]
     reasons: dict[str, str] = {}
     force = None
@@ -125,7 +129,7 @@ def derive(spec: ManipulatorSpec) -> Tuning:
     reasons["position"] = (f"kp {cartesian.kp:.4g}, ki {cartesian.ki:.4g}, kd {cartesian.kd:.4g}:"
                            f" three poles at {outer:.3g} rad/s ({outer_why})")
     reasons["orientation"] = "as position"
-    pid, pid_why = _pid(actuators, slowest, names, outer)
+    pid, pid_why = _pid(actuators, hydraulic_frequencies(spec, model).min(axis=0), names, outer)
     reasons["pid_only"] = pid_why
     control = ControlSpec(rate=rate, position=cartesian, orientation=cartesian,
                           pressure=PressureGains(bandwidth=force if force is not None else 40.0),
@@ -133,24 +137,23 @@ def derive(spec: ManipulatorSpec) -> Tuning:
     return Tuning(control, reasons)
 
 
-def _pid(actuators: list[Any], slowest: float, names: tuple[str, ...],
+def _pid(actuators: list[Any], springs: np.ndarray, names: tuple[str, ...],
          outer: float) -> tuple[JointPIDGains, str]:
-    candidates = [(PID_LAG / a.lag, f"joint {names[j]}'s {PID_LAG:g} / τ")
-                  for j, a in enumerate(actuators) if a.lag > 0.0]
-    if slowest > 0.0:
-        candidates.append((PID_SPRING * slowest,
-                           f"{PID_SPRING:g} × the arm's slowest spring mode, {slowest:.3g} rad/s"))
-    if candidates:
-        kp, text = min(candidates)
-        ki, ki_text = (PID_NATURAL * slowest) ** 2, f"({PID_NATURAL:g} × the slowest mode)²"
-        if slowest == 0.0:
-            ki, ki_text = kp**2 / 4.0, "kp²/4"
-    else:
-        kp, text = outer / 2.0, "half the outer loop's poles (ideal force sources)"
-        ki, ki_text = kp**2 / 4.0, "kp²/4"
-    gains = JointPIDGains(kp=kp, ki=ki, kd=0.0, velocity_gain=VELOCITY * kp)
-    return gains, (f"kp {kp:.3g} 1/s ({text}), ki {ki:.3g} 1/s² ({ki_text}), velocity loop "
-                   f"{gains.velocity_gain:.3g} 1/s")
+    """Each joint's kp and ki (see the module's rule 4) from its spring frequency ω_j (rad/s,
+    (n,), 0 without a spring), and their reasons."""
+    kp, why = [], []
+    for name, a, omega in zip(names, actuators, springs):
+        candidates = [(PID_LAG / a.lag, f"{PID_LAG:g} / τ")] if a.lag > 0.0 else []
+        if omega > 0.0:
+            candidates.append((PID_SPRING * omega, f"{PID_SPRING:g} × ω {omega:.3g} rad/s"))
+        ideal = (outer / 2.0, "half the outer loop's poles")
+        value, text = min(candidates) if candidates else ideal
+        kp.append(value)
+        why.append(f"{name} {value:.3g} ({text})")
+    ki = [k**2 / 2.0 for k in kp]
+    gains = JointPIDGains(kp=tuple(kp), ki=tuple(ki), kd=0.0, velocity_gain=VELOCITY * max(kp))
+    return gains, (f"kp per joint, 1/s: {'; '.join(why)}; ki = kp²/2 (damping ratio 0.71); "
+                   f"velocity loop {gains.velocity_gain:.3g} 1/s")
 
 
 def resolve(spec: ManipulatorSpec, given: ControlSpec | None = None) -> ControlSpec:

@@ -352,6 +352,20 @@ def _check_supply(supply: Supply | None, info: ValidationInfo) -> Supply | None:
     return supply
 
 
+def _check_control(control: ControlSpec | None, info: ValidationInfo) -> ControlSpec | None:
+    """A list of per-joint gains has one gain per joint."""
+    joints = info.data.get("joints")
+    if control is None or joints is None:
+        return control
+    for name in ("kp", "ki", "kd"):
+        gain = getattr(control.pid_only, name)
+        if isinstance(gain, tuple) and len(gain) != len(joints):
+            raise ValueError(f"pid_only.{name} has {len(gain)} gains for {len(joints)} joints "
+                             f"({', '.join(j.name for j in joints)}); give one number for every "
+                             "joint or one per joint")
+    return control
+
+
 @validated(kw_only=True)
 class ManipulatorSpec:
     """A serial manipulator, base to end-effector, one joint per degree of freedom.
@@ -371,7 +385,7 @@ class ManipulatorSpec:
     gravity: Vec3 = (0.0, 0.0, -9.81)
     joints: Annotated[tuple[Joint, ...], Field(min_length=1), BeforeValidator(sequence)]
     end_effector: EndEffector = EndEffector()
-    control: ControlSpec | None = None
+    control: Annotated[ControlSpec | None, AfterValidator(_check_control)] = None
     supply: Annotated[Supply | None, AfterValidator(_check_supply)] = None
     source: str | None = dataclasses.field(default=None, compare=False, repr=False,
                                            metadata={INTERNAL: True})

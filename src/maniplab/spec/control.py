@@ -6,13 +6,35 @@ Every gain left out (None) is derived from the arm and its actuators when a cont
 
 from __future__ import annotations
 
-from typing import Annotated, ClassVar, Literal
+import math
+from typing import Annotated, Any, ClassVar, Literal
 
-from pydantic import Strict
+import numpy as np
+from pydantic import BeforeValidator, Strict
+from pydantic_core import PydanticCustomError
 
 from maniplab.schema import NonNegative, Positive, UnitInterval, validated
+from maniplab.schema.fields import number
 
 Flag = Annotated[bool, Strict()]
+
+
+def _joint_gain(value: Any) -> Any:
+    """A gain >= 0 for every joint, or a list of one per joint (checked against the arm's joints
+    by the spec): a float, or a tuple of floats."""
+    if value is None:
+        return None
+    many = isinstance(value, (list, tuple, np.ndarray))
+    items = [number(v) for v in (value if many else [value])]
+    bad = [v for v in items if not (isinstance(v, float) and math.isfinite(v) and v >= 0.0)]
+    if bad or not items:
+        raise PydanticCustomError("spec_problem", "{problem}", {"problem": (
+            f"expected a number >= 0 or a list of one per joint, got {value!r}"), "field": ""})
+    return tuple(items) if many else items[0]
+
+
+JointGain = Annotated[float | tuple[float, ...] | None, BeforeValidator(_joint_gain)]
+"""One gain (>= 0) for every joint, or one per joint in the arm's order; None: derived."""
 
 
 @validated
@@ -55,20 +77,22 @@ class PressureGains:
 class JointPIDGains:
     """Gains of the PID-only baseline (no feedback linearisation), per joint.
 
-    The PID output is a joint speed (rad/s or m/s): a valve turns it into current through its
-    no-load gain, i_v = u A / C; an actuator without such a speed command gets a force from a
-    velocity loop, M_jj k_v (u - q̇) (M_jj the joint's inertia at the pose).
+    Each joint's PID tracks the planned joint path (the task error's least-squares image when
+    there is none) and adds the path's speed: its output is a joint speed (rad/s or m/s). A
+    valve turns it into current through its no-load gain, i_v = u A / C; an actuator without
+    such a speed command gets a force from a velocity loop, M_jj k_v (u - q̇) (M_jj the joint's
+    inertia at the pose).
 
     Attributes:
-        kp: 1/s.  ki: 1/s².  kd: dimensionless.  velocity_gain: k_v, 1/s.
-        (None: derived from the arm.)
+        kp: 1/s.  ki: 1/s².  kd: dimensionless: each one number for every joint or a list of
+            one per joint.  velocity_gain: k_v, 1/s.  (None: derived from the arm.)
     """
 
     EXAMPLE: ClassVar[str] = "kp: 3.0, ki: 2.25"
 
-    kp: NonNegative | None = None
-    ki: NonNegative | None = None
-    kd: NonNegative | None = None
+    kp: JointGain = None
+    ki: JointGain = None
+    kd: JointGain = None
     velocity_gain: Positive | None = None
 
 
