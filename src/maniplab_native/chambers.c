@@ -2,6 +2,8 @@
    (maniplab.actuators.hydraulic.chambers calls these; nothing there repeats the equations). */
 #include "chambers.h"
 
+#include "stiff.h"
+
 /* rates = (dpA/dt, dpB/dt, dx/dt), Pa/s, Pa/s, 1/s. */
 void ml_chambers_rates(const ml_chambers* c, double pa, double pb, double x, double u, double s,
                        double sdot, double* rates) {
@@ -25,4 +27,41 @@ void ml_chambers_flows(const ml_chambers* c, double pa, double pb, double x, dou
                        double* out) {
   ml_valve_edges(c, x, pa, pb, out, out + 1);
   ml_chamber_volumes(c, s, out + 2, out + 3);
+}
+
+/* J: d(rates)/d(pA, pB, x), row-major 3 x 3 (chambers.h). */
+void ml_chambers_jacobian(const ml_chambers* c, double pa, double pb, double x, double u,
+                          double s, double* J) {
+  ml_chambers_jacobian_law(c, pa, pb, x, u, s, J);
+}
+
+/* One exponential step from y0 (chambers.h's ml_chambers_step, without sub-steps). */
+static int one_step(const ml_chambers* c, const double* y0, double u, double s0, double sdot0,
+                    double s1, double sdot1, double h, double* y1) {
+  double J[9], f0[3], f1[3], df[3], dy[3];
+  double scale[3] = {c->supply, c->supply, 1.0};
+  ml_chambers_jacobian_law(c, y0[0], y0[1], y0[2], u, s0, J);
+  ml_chambers_rates_law(c, y0[0], y0[1], y0[2], u, s0, sdot0, f0);
+  ml_chambers_rates_law(c, y0[0], y0[1], y0[2], u, s1, sdot1, f1);
+  for (int i = 0; i < 3; i++) {
+    for (int j = 0; j < 3; j++) J[3 * i + j] *= scale[j] / scale[i];
+    df[i] = (f1[i] - f0[i]) / scale[i];
+    f0[i] /= scale[i];
+  }
+  int status = ml_exponential_step(3, h, J, f0, df, dy);
+  for (int i = 0; i < 3; i++) y1[i] = y0[i] + scale[i] * dy[i];
+  return status;
+}
+
+int ml_chambers_step(const ml_chambers* c, const double* y0, double u, double s0, double sdot0,
+                     double s1, double sdot1, double h, int substeps, double* y1) {
+  double y[3] = {y0[0], y0[1], y0[2]};
+  int status = 0;
+  for (int k = 0; k < substeps; k++) { /* the length and its rate linear over the step */
+    double a = (double)k / substeps, b = (double)(k + 1) / substeps;
+    status |= one_step(c, y, u, s0 + a * (s1 - s0), sdot0 + a * (sdot1 - sdot0),
+                       s0 + b * (s1 - s0), sdot0 + b * (sdot1 - sdot0), h / substeps, y1);
+    for (int i = 0; i < 3; i++) y[i] = y1[i];
+  }
+  return status;
 }

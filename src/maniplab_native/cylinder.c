@@ -9,9 +9,20 @@
    pump: its pressure falls below the setting when their valves together would draw more than
    pump_flow (chambers.h), so that cylinders moving together slow down.
 
-   MuJoCo's integrator advances the three states with the arm (actuator_act_dot). The relief and
-   anti-cavitation valves are ideal: after each step (`advance`) each pressure is brought back
-   within [Pt, p_r], and within a step the force sees it there (`compute`). */
+   The three states are stiff (a small chamber filling through a wide-open edge decays at up to
+   1e6 1/s), so MuJoCo's integrator does not take them: each step they take one exponential
+   Rosenbrock-Euler step (stiff.h) of their own, exact for the linear part of their dynamics and
+   stable at any step, so that the step is the arm mechanics' (the oil spring included). The
+   first act_dot of a step records the step's start (the states, the cylinder's length and rate,
+   the supply pressure); at each stage of MuJoCo's integrator within the step, the force
+   (`compute`) comes from the states taken by that step from the start to the stage's time, with
+   the cylinder moving as the stage has it move; after the step (`advance`) the states are taken
+   from the start to the step's end, with the rate from the advanced joint velocities, and
+   replace what the integrator made of act_dot (which reports the states' rate of change at each
+   stage, for the record). The coupling to the mechanics is second order.
+
+   The relief and anti-cavitation valves are ideal: after each step each pressure is brought
+   back within [Pt, p_r], and within a step the force sees it there (`compute`). */
 #include <math.h>
 #include <string.h>
 
@@ -22,11 +33,17 @@
 
 typedef struct {
   int actuator;
+  int output;           /* the actuator's force output (its length, velocity and force) */
   ml_chambers law;
   double pump_flow;     /* Q_max of the shared supply, m^3/s; 0: a supply of its own */
 } Cylinder;
 
 static int g_slot = -1;  /* this plugin's registered slot */
+
+/* plugin_state of an instance: the step's start (time, states, length, rate, supply) and
+   whether it is recorded */
+enum { START_TIME, HAVE_START, START_Y, START_S = START_Y + 3, START_SDOT, START_SUPPLY,
+       NSTATE };
 
 static const char* kAttributes[] = {
     "area_a", "area_b", "dead_a", "dead_b", "min_length", "stroke", "bulk_modulus", "leakage",
@@ -77,6 +94,7 @@ static int init(const mjModel* m, mjData* d, int instance) {
   memset(&c, 0, sizeof(c));
   c.actuator = ml_instance_actuator(m, instance, PLUGIN);
   if (c.actuator < 0) return -1;
+  c.output = m->actuator_outadr[c.actuator];
   if (m->actuator_actnum[c.actuator] != 3) {
     mju_warning(PLUGIN ": actuator %d needs actdim=\"3\" (pA, pB, spool)", c.actuator);
     return -1;
@@ -96,7 +114,11 @@ static int init(const mjModel* m, mjData* d, int instance) {
   return ml_keep(d, instance, &c, sizeof(c));
 }
 
-static int nstate(const mjModel* m, int instance) { return 0; }
+static int nstate(const mjModel* m, int instance) { return NSTATE; }
+
+static void reset(const mjModel* m, mjtNum* plugin_state, void* plugin_data, int instance) {
+  for (int k = 0; k < NSTATE; k++) plugin_state[k] = 0.0;
+}
 
 /* The shared supply's total draw at pressure ps: every cylinder of this plugin on the pump. */
 static double pump_draw(const mjModel* m, const mjData* d, double ps) {
@@ -122,28 +144,71 @@ static double pump_pressure(const mjModel* m, const mjData* d, const Cylinder* c
   return 0.5 * (low + high);
 }
 
+/* The cylinder's rate ds/dt from the joint velocities d->qvel and the actuator's moments. */
+static double length_rate(const mjModel* m, const mjData* d, const Cylinder* c) {
+  int start = d->moment_rowadr[c->output], count = d->moment_rownnz[c->output];
+  double rate = 0.0;
+  for (int k = start; k < start + count; k++) {
+    rate += d->actuator_moment[k] * d->qvel[d->moment_colind[k]];
+  }
+  return rate;
+}
+
 static void act_dot(const mjModel* m, mjData* d, int instance) {
   const Cylinder* c = (const Cylinder*)d->plugin_data[instance];
   int adr = m->actuator_actadr[c->actuator];
-  const double* x = d->act + adr;
+  mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
   ml_chambers law = c->law;
-  if (c->pump_flow > 0.0) law.supply = pump_pressure(m, d, c);
-  ml_chambers_rates_law(&law, x[0], x[1], x[2], ml_control(m, d, c->actuator),
-                        d->actuator_length[c->actuator], d->actuator_velocity[c->actuator],
+  double s = d->actuator_length[c->output], sdot = d->actuator_velocity[c->output];
+  const double* y = d->act + adr;
+  if (!state[HAVE_START] || d->time == state[START_TIME]) { /* a step starts here */
+    if (c->pump_flow > 0.0) law.supply = pump_pressure(m, d, c);
+    state[START_TIME] = d->time;
+    state[HAVE_START] = 1.0;
+    for (int i = 0; i < 3; i++) state[START_Y + i] = y[i];
+    state[START_S] = s;
+    state[START_SDOT] = sdot;
+    state[START_SUPPLY] = law.supply;
+  }
+  law.supply = state[START_SUPPLY];
+  ml_chambers_rates_law(&law, y[0], y[1], y[2], ml_control(m, d, c->actuator), s, sdot,
                         d->act_dot + adr);
 }
 
 static void advance(const mjModel* m, mjData* d, int instance) {
   const Cylinder* c = (const Cylinder*)d->plugin_data[instance];
+  mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
   double* x = d->act + m->actuator_actadr[c->actuator];
+  double h = m->opt.timestep;
+  double since = d->time - state[START_TIME];  /* MuJoCo has advanced the time by h */
+  if (state[HAVE_START] && fabs(since - h) <= 1e-9 * (h + fabs(d->time))) {
+    ml_chambers law = c->law;
+    law.supply = state[START_SUPPLY];
+    double s0 = state[START_S], sdot0 = state[START_SDOT], sdot1 = length_rate(m, d, c);
+    ml_chambers_step(&law, state + START_Y, ml_control(m, d, c->actuator), s0, sdot0,
+                     s0 + 0.5 * h * (sdot0 + sdot1), sdot1, h, ML_CHAMBER_SUBSTEPS, x);
+  }
+  state[HAVE_START] = 0.0;
   x[0] = ml_chamber_bounded(&c->law, x[0]);
   x[1] = ml_chamber_bounded(&c->law, x[1]);
 }
 
 static void compute(const mjModel* m, mjData* d, int instance, int capability_bit) {
   const Cylinder* c = (const Cylinder*)d->plugin_data[instance];
+  const mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
   const double* x = d->act + m->actuator_actadr[c->actuator];
-  d->actuator_force[c->actuator] = ml_chambers_force_law(&c->law, x[0], x[1]);
+  double y[3] = {x[0], x[1], x[2]};
+  double since = d->time - state[START_TIME];
+  if (state[HAVE_START] && since > 0.0 && since <= m->opt.timestep * (1.0 + 1e-9)) {
+    /* a stage within the step: the pressures from the step's start to this stage's time, with
+       the cylinder moving as this stage has it move */
+    ml_chambers law = c->law;
+    law.supply = state[START_SUPPLY];
+    double s = d->actuator_length[c->output], sdot = d->actuator_velocity[c->output];
+    ml_chambers_step(&law, state + START_Y, ml_control(m, d, c->actuator), state[START_S],
+                     state[START_SDOT], s, sdot, since, 1, y);
+  }
+  d->actuator_force[c->output] = ml_chambers_force_law(&c->law, y[0], y[1]);
 }
 
 void ml_register_cylinder(const char* name) {
@@ -156,6 +221,7 @@ void ml_register_cylinder(const char* name) {
   plugin.nstate = nstate;
   plugin.init = init;
   plugin.destroy = ml_destroy;
+  plugin.reset = reset;
   plugin.compute = compute;
   plugin.actuator_act_dot = act_dot;
   plugin.advance = advance;

@@ -45,6 +45,7 @@ from maniplab.friction import FrictionModel
 from maniplab.mjcb import suspended
 from maniplab.mjcf_gen.builder import arm_step_limit
 from maniplab.mjcf_gen.timestep import default_step, round_down
+from maniplab.sim.accuracy import accurate_step, measuring
 from maniplab.sim import native
 from maniplab.sim.actuation import Actuation
 from maniplab.sim.budget import check_step
@@ -124,7 +125,12 @@ class Plant:
                  integrator: str = "RK4") -> None:
         self.spec = resolve_spec(spec)
         self.step_limit = arm_step_limit(self.spec)
-        self.dt = check_step(dt) if dt is not None else default_step(self.step_limit)
+        self.accuracy = None if measuring() else accurate_step(self.spec,
+                                                               default_step(self.step_limit))
+        """The step the arm's accuracy allows (:mod:`~maniplab.sim.accuracy`), or None in the
+        runs that measure it."""
+        self.dt = (check_step(dt) if dt is not None else
+                   self.accuracy.dt if self.accuracy else default_step(self.step_limit))
         if self.step_limit.dt < MIN_STEP:
             where = f" in {self.spec.source}" if self.spec.source else ""
             raise InstabilityError(

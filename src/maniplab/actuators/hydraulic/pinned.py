@@ -232,14 +232,20 @@ class PinnedCylinder(ActuatorPlugin):
 
     def rates(self, native: bool = False) -> dict[str, float]:
         """The spool's lag 1/τ and the pressure decay of the leakage across the piston,
-        Le E (1/V_A0 + 1/V_B0), 1/s."""
+        Le E (1/V_A0 + 1/V_B0), 1/s; none in the engine plugin, whose exponential step takes
+        them exactly (``maniplab_native/stiff.h``)."""
+        if native:
+            return {}
         p = self.params
         leak = p.leakage * p.bulk_modulus * sum(1.0 / v for v in p.cylinder.dead_volumes)
         return {"spool lag": 1.0 / p.valve.tau, "leakage": leak}
 
     def decays(self, native: bool = False) -> dict[str, float]:
         """A chamber filling through a wide-open edge: E/V_0 K / sqrt(p_l), the orifice's
-        steepest slope (at its laminar transition) on the smaller dead volume, 1/s."""
+        steepest slope (at its laminar transition) on the smaller dead volume, 1/s; none in
+        the engine plugin, whose exponential step is stable at any step."""
+        if native:
+            return {}
         law = self.law
         slope = max(law.gain_a, law.gain_b) / math.sqrt(law.laminar)
         return {"chamber filling": self.params.bulk_modulus / self._smallest_volume() * slope}
