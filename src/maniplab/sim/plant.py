@@ -45,8 +45,8 @@ from maniplab.friction import FrictionModel
 from maniplab.mjcb import suspended
 from maniplab.mjcf_gen.builder import arm_step_limit
 from maniplab.mjcf_gen.timestep import default_step, round_down
-from maniplab.sim.accuracy import accurate_step, measuring
 from maniplab.sim import native
+from maniplab.sim.accuracy import accurate_step, measuring
 from maniplab.sim.actuation import Actuation
 from maniplab.sim.budget import check_step
 from maniplab.sim.callbacks import PluginCallbacks, PythonHooks
