@@ -22,6 +22,7 @@ import json
 import math
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -41,8 +42,13 @@ DURATION = 0.3
 SWITCH = (0.05, 0.15, 0.25)
 """When the commands step to +half, to -half and back to 0, s."""
 
-SMALLEST = 1e-6
-"""The finest step the search tries, s (below it a run would take too long anyway)."""
+SMALLEST = 1e-5
+"""The finest step the search tries, s: an arm that needs a finer one is refused (a 10 s run
+would take a million steps), naming the joint, the state and the step it needs."""
+
+
+class StepWarning(UserWarning):
+    """A step given explicitly is coarser than the arm's accuracy allows."""
 
 _MEASURING = False  # set while this module's own runs build plants (they give their step)
 
@@ -56,12 +62,20 @@ class AccurateStep:
         error: the estimated error of a run at dt, relative to the worst signal's range.
         signal: that signal (e.g. "pA"), or "" when nothing limits the step.
         joint: its joint's name, or "".
+        needs: the step the tolerance needs when even :data:`SMALLEST` misses it (the error
+            taken as second order in the step), else equal to ``dt``.
     """
 
     dt: float
     error: float = 0.0
     signal: str = ""
     joint: str = ""
+    needs: float = 0.0
+
+    @property
+    def met(self) -> bool:
+        """Whether ``dt`` keeps the excitation within the tolerance."""
+        return self.error / SAFETY <= TOLERANCE
 
     def describe(self) -> str:
         """E.g. "joint lift's pA is 2.1e-3 of its range off at 1e-3 s"."""
@@ -89,9 +103,13 @@ def _measuring() -> Iterator[None]:
 def accurate_step(spec: ManipulatorSpec, stable: float) -> AccurateStep:
     """The largest step at most ``stable`` (s, the stability limit's default step) that keeps
     the excitation's run within the tolerance; cached on disk."""
+    if stable < SMALLEST:  # too fine to measure affordably: the stability limit's step
+        return AccurateStep(stable, needs=stable)
     path = _cache_path(spec, stable)
     try:
-        return AccurateStep(**json.loads(path.read_text()))
+        found = AccurateStep(**json.loads(path.read_text()))
+        if found.needs > 0.0:
+            return found
     except (OSError, ValueError, TypeError):
         pass
     found = _search(spec, stable)
@@ -101,25 +119,48 @@ def accurate_step(spec: ManipulatorSpec, stable: float) -> AccurateStep:
     return found
 
 
+def check(found: AccurateStep, dt: float | None, mujoco_step: float, source: str | None) -> None:
+    """Refuse an arm whose accuracy needs a step below :data:`SMALLEST` (a derived step), or warn
+    when an explicit ``dt`` makes MuJoCo's steps (``mujoco_step``, s) coarser than ``found``."""
+    import warnings
+
+    from maniplab.sim.errors import InstabilityError
+
+    where = f" in {source}" if source else ""
+    if dt is None and not found.met:
+        raise InstabilityError(
+            f"joint {found.joint}'s {found.signal} needs dt <= {found.needs:.2g} s to stay within "
+            f"{TOLERANCE:g} of its range, below the {SMALLEST:g} s a simulation can afford: check "
+            f"that actuator's parameters{where} (a tiny oil volume or a huge valve?), or give "
+            "dt explicitly to run less accurately", time=0.0, joint=found.joint or None,
+            dt=found.dt, resolved=True)
+    if dt is not None and mujoco_step > found.needs * 1.000001:
+        warnings.warn(f"dt {mujoco_step:g} s is coarser than the {found.needs:.2g} s that keeps "
+                      f"joint {found.joint}'s {found.signal} within {TOLERANCE:g} of its range",
+                      StepWarning, stacklevel=3)
+
+
 def _search(spec: ManipulatorSpec, stable: float) -> AccurateStep:
     h = stable
     while True:
         coarse, names = _run(spec, h, h)
         if not names:
-            return AccurateStep(h)  # no actuator states: the mechanics alone, at the stable step
+            return AccurateStep(h, needs=h)  # no actuator states: the mechanics alone
         fine, _ = _run(spec, h / 2.0, h)
         error, signal, joint = _estimate(coarse, fine)
-        if error / SAFETY <= TOLERANCE or h <= SMALLEST:
-            return AccurateStep(h, error, signal, spec.joint_names[joint] if signal else "")
+        if error / SAFETY <= TOLERANCE or h <= SMALLEST * 1.000001:
+            needs = h * min(1.0, math.sqrt(SAFETY * TOLERANCE / error)) if error > 0 else h
+            return AccurateStep(h, error, signal, spec.joint_names[joint] if signal else "",
+                                needs)
         h = round_down(h * 0.999)  # the next 1, 2, 5 × 10^k below
 
 
-def excitation(spec: ManipulatorSpec, limits: np.ndarray) -> dict[int, object]:
+def excitation(spec: ManipulatorSpec, limits: np.ndarray) -> dict[str | int, Any]:
     """Each commanded joint's input: half its command range at SWITCH[0], minus half at
     SWITCH[1], 0 at SWITCH[2] (a joint without a command limit gets none)."""
     from maniplab.sim import signals
 
-    inputs: dict[int, object] = {}
+    inputs: dict[str | int, Any] = {}
     for j, limit in enumerate(limits):
         if math.isfinite(limit) and limit > 0.0:
             a = 0.5 * float(limit)
@@ -136,17 +177,17 @@ def _run(spec: ManipulatorSpec, h: float, sample: float) -> tuple[dict[str, np.n
     from maniplab.sim.simulate import simulate
 
     with _measuring():
-        plant = Plant(_smooth(spec), dt=h)
+        plant = Plant(smooth(spec), dt=h)
     start = np.array([0.5 * (j.limits[0] + j.limits[1]) if j.limits else 0.0
                       for j in spec.joints])
-    limits = np.asarray(plant.native_config()["command_limit"], dtype=float)
+    limits = np.asarray(plant.command_limit, dtype=float)
     run = simulate(plant, inputs=excitation(spec, limits), duration=DURATION,
                    initial={"q": start, "dP": "gravity"}, sample_dt=sample)
     names = [name for name in plant.state_names if name in run.signals]
     return {name: np.asarray(run[name]) for name in ["q", *names]}, names
 
 
-def _smooth(spec: ManipulatorSpec) -> ManipulatorSpec:
+def smooth(spec: ManipulatorSpec) -> ManipulatorSpec:
     """``spec`` without the stick/slip events of its hybrid friction (no Coulomb or stiction,
     the viscous part kept): the step in which such an event falls is a matter of the event's
     location, first order in any fixed-step scheme, not of the integration's accuracy."""

@@ -47,6 +47,7 @@ from maniplab.mjcf_gen.builder import arm_step_limit
 from maniplab.mjcf_gen.timestep import default_step, round_down
 from maniplab.sim import native
 from maniplab.sim.accuracy import accurate_step, measuring
+from maniplab.sim.accuracy import check as check_accuracy
 from maniplab.sim.actuation import Actuation
 from maniplab.sim.budget import check_step
 from maniplab.sim.callbacks import PluginCallbacks, PythonHooks
@@ -124,19 +125,20 @@ class Plant:
     def __init__(self, spec: SpecLike, *, dt: float | None = None,
                  integrator: str = "RK4") -> None:
         self.spec = resolve_spec(spec)
+        given = check_step(dt) if dt is not None else None
         self.step_limit = arm_step_limit(self.spec)
-        self.accuracy = None if measuring() else accurate_step(self.spec,
-                                                               default_step(self.step_limit))
-        """The step the arm's accuracy allows (:mod:`~maniplab.sim.accuracy`), or None in the
-        runs that measure it."""
-        self.dt = (check_step(dt) if dt is not None else
-                   self.accuracy.dt if self.accuracy else default_step(self.step_limit))
         if self.step_limit.dt < MIN_STEP:
             where = f" in {self.spec.source}" if self.spec.source else ""
             raise InstabilityError(
                 f"{self.step_limit.describe()}, below the {MIN_STEP:g} s a simulation can afford: "
                 f"check that actuator's parameters{where} (an oil volume or valve far off?)",
-                time=0.0, joint=self.step_limit.joint, dt=self.dt, resolved=True)
+                time=0.0, joint=self.step_limit.joint, dt=dt or self.step_limit.dt, resolved=True)
+        self.accuracy = None if measuring() else accurate_step(self.spec,
+                                                               default_step(self.step_limit))
+        """The step the arm's accuracy allows (:mod:`~maniplab.sim.accuracy`), or None in the
+        runs that measure it."""
+        self.dt = (given if given is not None else
+                   self.accuracy.dt if self.accuracy else default_step(self.step_limit))
         ratio = self.dt / self.step_limit.dt * (1.0 - 1e-9)  # inf for a dt of 1e308
         self.substeps = max(1, math.ceil(ratio)) if ratio <= MAX_SUBSTEPS else MAX_SUBSTEPS + 1
         if self.substeps > MAX_SUBSTEPS:
@@ -144,6 +146,8 @@ class Plant:
                 f"{self.step_limit.describe()}: more than {MAX_SUBSTEPS} sub-steps per step",
                 time=0.0, joint=self.step_limit.joint, dt=self.dt,
                 works=round_down(self.step_limit.dt * MAX_SUBSTEPS))
+        if self.accuracy:
+            check_accuracy(self.accuracy, dt, self.dt / self.substeps, self.spec.source)
         self.integrator = _integrator(integrator)
         self.n = self.spec.n
         self.joint_names = self.spec.joint_names
