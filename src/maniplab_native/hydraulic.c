@@ -11,12 +11,18 @@
    The law and the rates are valve.h's, which every other part of maniplab evaluates too.
 
    MuJoCo's integrator advances dP and Q with the arm (actuator_act_dot), so mj_step, rollout and
-   the viewers all run it. The relief valve is stiff (its pressure decay rate K_r E/V reaches 1e4
-   to 1e8 1/s), so it is not part of act_dot: after each step (`advance`) the pressure is taken
-   through the relief's regime exactly, as a linear decay towards p_r under the step's mean rate
-   of change, which MuJoCo's step gave (operator splitting; exact while the relief stays open).
-   That needs the step's starting pressure: act_dot records it when evaluated at the step's start
-   (its first evaluation after a reset or a step, or again at that same time). */
+   the viewers all run it. The relief valve is stiff (its pressure decay rate lambda = K_r E/V
+   reaches 1e4 to 1e8 1/s), so it is not part of act_dot: MuJoCo's dP runs on without it, and
+   every later evaluation inside a step (RK4's stages 2 to 4: their force and rates) and the
+   step's end (`advance`) take that pressure through the relief's regime exactly from the step's
+   start (`relieved`): the rate without the relief is taken as linear over the time since the start,
+   from its value at the start to the value that gives MuJoCo's mean rate, and under it the
+   pressure rises or falls freely while the relief is closed and relaxes at lambda towards p_r
+   while it is open (an exponential integrator, exact for that rate), the relief opening and
+   closing where the pressure reaches p_r. While the relief stays closed this is MuJoCo's dP
+   itself, so RK4's fourth order is untouched. That needs the step's starting pressure and rate:
+   they are recorded at every evaluation that is not one of RK4's later stages (half a step or a
+   whole step after the recorded start), so at each step's start. */
 #include <math.h>
 #include <stdint.h>
 #include <stdlib.h>
@@ -30,45 +36,124 @@
 typedef struct {
   int actuator;
   ml_cylinder law;      /* eq. (4)'s parameters (valve.h) */
-  double relief_cap;    /* p_r + C i_max / K_r, Pa: the open relief's pressure at full flow */
 } Cylinder;
 
-/* plugin_state of an instance: the step's start time and pressure, and whether they are set */
-enum { START_TIME, START_PRESSURE, HAVE_START, NSTATE };
+/* plugin_state of an instance: the step's start time, pressure and rate without the relief
+   (Pa/s), and whether they are set */
+enum { START_TIME, START_PRESSURE, START_RATE, HAVE_START, NSTATE };
 
 static const char* kAttributes[] = {
     "area", "bulk_modulus", "volume", "leakage", "valve_gain", "supply_pressure", "valve_tau",
     "valve_law", "relief_pressure", "relief_gain"};
 
-/* The open relief from pressure p on side s (+-1) over a time t at the mean rate r (Pa/s):
-   dp/dt = r - lambda (p - s p_r), solved exactly. */
-static double open_relief(const ml_cylinder* c, double p, double s, double r, double t) {
-  double lambda = c->stiffness * c->relief_gain;
-  double x = lambda * t;
-  double grow = x > 1e-8 ? -expm1(-x) : x * (1.0 - 0.5 * x);  /* 1 - e^-x */
-  return s * c->relief + (p - s * c->relief) * (1.0 - grow) + r / lambda * grow;
+/* phi1(x) = (1 - e^-x)/x and phi2(x) = (x - 1 + e^-x)/x^2, x >= 0 (their series near 0). */
+static void phis(double x, double* phi1, double* phi2) {
+  if (x < 1e-3) {
+    *phi1 = 1.0 - x * (0.5 - x * (1.0 / 6.0 - x / 24.0));
+    *phi2 = 0.5 - x * (1.0 / 6.0 - x * (1.0 / 24.0 - x / 120.0));
+    return;
+  }
+  double grow = -expm1(-x); /* 1 - e^-x */
+  *phi1 = grow / x;
+  *phi2 = (x - grow) / (x * x);
 }
 
-/* The pressure after a step of length h that MuJoCo took from p0 to p1 without the relief, with
-   the relief: the step's mean rate r = (p1 - p0)/h held, the valve opening and closing at p_r
-   exactly (piecewise: closed, dp/dt = r; open, as open_relief). */
-static double relieved(const ml_cylinder* c, double p0, double p1, double h) {
-  double r = (p1 - p0) / h;
-  double pr = c->relief;
-  double lambda = c->stiffness * c->relief_gain;
-  if (fabs(p0) <= pr) {                     /* closed: it opens where p reaches +-p_r */
-    if (fabs(p1) <= pr) return p1;
-    double s = p1 > 0.0 ? 1.0 : -1.0;
-    double t1 = (s * pr - p0) / r;
-    return open_relief(c, s * pr, s, r, h - t1);
+/* The open relief's excess e = p - s p_r after a time u from e, under the rate r + k t:
+   de/dt = r + k t - lambda e, solved exactly. */
+static double open_excess(double e, double r, double k, double lambda, double u) {
+  double x = lambda * u, phi1, phi2;
+  phis(x, &phi1, &phi2);
+  return e * exp(-x) + u * (r * phi1 + k * u * phi2);
+}
+
+/* The first time u in (0, t] at which the closed valve's pressure p + r u + k u^2/2 reaches the
+   relief setting on either side (moving outwards), or -1. */
+static double opening(double p, double r, double k, double pr, double t) {
+  double first = -1.0;
+  for (int side = -1; side <= 1; side += 2) {
+    double a = 0.5 * k, b = r, c0 = p - side * pr, roots[2];
+    int n = 0;
+    if (a == 0.0) {
+      if (b != 0.0) roots[n++] = -c0 / b;
+    } else {
+      double disc = b * b - 4.0 * a * c0;
+      if (disc >= 0.0) {
+        double q = -0.5 * (b + copysign(sqrt(disc), b));
+        if (q != 0.0) {
+          roots[n++] = q / a;
+          roots[n++] = c0 / q;
+        } else {
+          roots[n++] = 0.0;
+        }
+      }
+    }
+    for (int i = 0; i < n; i++) {
+      double u = roots[i];
+      if (u > 0.0 && u <= t && side * (r + k * u) > 0.0 && (first < 0.0 || u < first)) first = u;
+    }
   }
-  double s = p0 > 0.0 ? 1.0 : -1.0;       /* open: it closes if the rate pulls p below p_r */
-  double excess = p0 - s * pr;
-  if (s * r >= 0.0) return open_relief(c, p0, s, r, h);
-  double ratio = -r / (lambda * excess - r);  /* e^(-lambda t1) at the closing time t1 */
-  double t1 = -log(ratio) / lambda;
-  if (t1 >= h) return open_relief(c, p0, s, r, h);
-  return s * pr + r * (h - t1);
+  return first;
+}
+
+/* The time u in (0, t) at which the open relief, s e > 0 now and s e(t) < 0, closes: the root of
+   its exact excess (safeguarded Newton). */
+static double closing(double e, double s, double r, double k, double lambda, double t) {
+  double lo = 0.0, hi = t, u = 0.5 * t;
+  for (int i = 0; i < 60; i++) {
+    double f = s * open_excess(e, r, k, lambda, u);
+    if (f > 0.0) {
+      lo = u;
+    } else if (f < 0.0) {
+      hi = u;
+    } else {
+      return u;
+    }
+    double slope = s * (r + k * u) - lambda * f; /* d(s e)/du */
+    double next = slope < 0.0 ? u - f / slope : lo;
+    if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
+    if (fabs(next - u) <= 1e-14 * t) return next;
+    u = next;
+  }
+  return u;
+}
+
+/* The pressure a time t after a step's start at p0, with the relief, the rate without it taken
+   as linear over the time, from r0 at the start to r1 (closed, dp/dt = r; open, open_excess),
+   the valve opening and closing at p_r exactly. While the relief stays closed that is p_closed,
+   the pressure MuJoCo's integration reached without it. */
+static double relieved(const ml_cylinder* c, double p0, double r0, double r1, double p_closed,
+                       double t) {
+  if (!isfinite(p0 + r0 + r1 + p_closed)) return p0 + r0 + r1 + p_closed; /* NaN stays NaN */
+  double pr = c->relief, lambda = c->stiffness * c->relief_gain;
+  double k = (r1 - r0) / t;
+  double p = p0, r = r0, left = t;
+  for (int phase = 0; phase < 8 && left > 0.0; phase++) {
+    double s = p >= 0.0 ? 1.0 : -1.0;
+    if (fabs(p) < pr || (fabs(p) == pr && s * r <= 0.0)) { /* closed */
+      double u = opening(p, r, k, pr, left);
+      if (u < 0.0) return phase == 0 ? p_closed : p + left * (r + 0.5 * k * left);
+      s = r + k * u > 0.0 ? 1.0 : -1.0;
+      p = s * pr;
+      r += k * u;
+      left -= u;
+    } else { /* open */
+      double e = p - s * pr;
+      double end = open_excess(e, r, k, lambda, left);
+      if (s * end >= 0.0) return s * pr + end;
+      double u = closing(e, s, r, k, lambda, left);
+      p = s * pr;
+      r += k * u;
+      left -= u;
+    }
+  }
+  return p;
+}
+
+/* relieved from the step's start (p0, rate r0) to the pressure p1 that MuJoCo's integration
+   reached without the relief a time t later: the rate taken as linear with the mean (p1 - p0)/t,
+   so ending at 2 (p1 - p0)/t - r0. */
+static double relieved_since(const ml_cylinder* c, double p0, double r0, double p1, double t) {
+  return relieved(c, p0, r0, 2.0 * (p1 - p0) / t - r0, p1, t);
 }
 
 static int required(const mjModel* m, int instance, const char* key, double* value, int positive) {
@@ -113,11 +198,6 @@ static int init(const mjModel* m, mjData* d, int instance) {
       mju_warning(PLUGIN ": a relief needs a positive relief_pressure and relief_gain");
       return -1;
     }
-    double limit = m->actuator_ctrllimited[c.actuator]
-                       ? fmax(fabs(m->actuator_ctrlrange[2 * c.actuator]),
-                              fabs(m->actuator_ctrlrange[2 * c.actuator + 1]))
-                       : 1.0;
-    c.relief_cap = eq->relief + eq->valve_gain * limit / eq->relief_gain;
   }
   return ml_keep(d, instance, &c, sizeof(c));
 }
@@ -127,22 +207,54 @@ static int nstate(const mjModel* m, int instance) { return NSTATE; }
 static void reset(const mjModel* m, mjtNum* plugin_state, void* plugin_data, int instance) {
   plugin_state[START_TIME] = 0.0;
   plugin_state[START_PRESSURE] = 0.0;
+  plugin_state[START_RATE] = 0.0;
   plugin_state[HAVE_START] = 0.0;
+}
+
+/* d(dP)/dt without the relief, Pa/s. */
+static double inflow(const Cylinder* c, double dP, double Q, double v) {
+  return c->law.stiffness * (Q - c->law.area * v - c->law.leakage * dP);
+}
+
+/* The time since the recorded start of the step when this evaluation is one of RK4's later
+   stages of that step (half a step or a whole step after it), else 0: the evaluation starts a
+   step (the first after a reset or a step, the same time again, or a state set elsewhere). */
+static double into_step(const mjModel* m, const mjData* d, const mjtNum* state) {
+  if (!state[HAVE_START]) return 0.0;
+  double t = d->time - state[START_TIME], h = m->opt.timestep;
+  double tol = 1e-9 * (h + fabs(d->time));
+  return fabs(t - 0.5 * h) <= tol || fabs(t - h) <= tol ? t : 0.0;
+}
+
+/* The pressure at an evaluation with the relief: at a step's start, dP (and the start's time,
+   pressure and rate without the relief are recorded); at a later stage, MuJoCo's dP, which runs
+   on without the relief, taken through the relief's regime from the start (relieved_since). */
+static double stage_pressure(const mjModel* m, mjData* d, const Cylinder* c, mjtNum* state,
+                             double dP, double Q, double v) {
+  double t = into_step(m, d, state);
+  if (t > 0.0) return relieved_since(&c->law, state[START_PRESSURE], state[START_RATE], dP, t);
+  state[START_TIME] = d->time;
+  state[START_PRESSURE] = dP;
+  state[START_RATE] = inflow(c, dP, Q, v);
+  state[HAVE_START] = 1.0;
+  return dP;
+}
+
+/* dP as the force and the rates see it at this evaluation (stage_pressure with a relief). */
+static double pressure(const mjModel* m, mjData* d, int instance, const Cylinder* c) {
+  int adr = m->actuator_actadr[c->actuator];
+  double dP = d->act[adr];
+  if (c->law.relief <= 0.0) return dP;
+  return stage_pressure(m, d, c, d->plugin_state + m->plugin_stateadr[instance], dP,
+                        d->act[adr + 1], d->actuator_velocity[c->actuator]);
 }
 
 static void act_dot(const mjModel* m, mjData* d, int instance) {
   const Cylinder* c = (const Cylinder*)d->plugin_data[instance];
   int adr = m->actuator_actadr[c->actuator];
-  double dP = d->act[adr], Q = d->act[adr + 1];
-  double v = d->actuator_velocity[c->actuator];
-  double u = ml_control(m, d, c->actuator);
-  ml_cylinder_rates_law(&c->law, dP, Q, u, v, 0, d->act_dot + adr);  /* the relief: advance */
-  mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
-  if (c->law.relief > 0.0 && (!state[HAVE_START] || d->time == state[START_TIME])) {
-    state[START_TIME] = d->time;
-    state[START_PRESSURE] = dP;
-    state[HAVE_START] = 1.0;
-  }
+  double dP = pressure(m, d, instance, c);
+  ml_cylinder_rates_law(&c->law, dP, d->act[adr + 1], ml_control(m, d, c->actuator),
+                        d->actuator_velocity[c->actuator], 0, d->act_dot + adr);
 }
 
 static void advance(const mjModel* m, mjData* d, int instance) {
@@ -152,20 +264,17 @@ static void advance(const mjModel* m, mjData* d, int instance) {
   double h = m->opt.timestep;
   int adr = m->actuator_actadr[c->actuator];
   double p1 = d->act[adr];
-  /* without a recorded start (the state was set at another time), hold p1 as the start */
-  double since = d->time - state[START_TIME];  /* MuJoCo has advanced the time by h */
+  /* without a recorded start (the state was set at another time), p1 held over the step */
+  double since = d->time - state[START_TIME]; /* MuJoCo has advanced the time by h */
   int known = state[HAVE_START] && fabs(since - h) <= 1e-9 * (h + fabs(d->time));
-  d->act[adr] = relieved(&c->law, known ? state[START_PRESSURE] : p1, p1, h);
+  d->act[adr] = known ? relieved_since(&c->law, state[START_PRESSURE], state[START_RATE], p1, h)
+                      : relieved(&c->law, p1, 0.0, 0.0, p1, h);
   state[HAVE_START] = 0.0;
 }
 
 static void compute(const mjModel* m, mjData* d, int instance, int capability_bit) {
   const Cylinder* c = (const Cylinder*)d->plugin_data[instance];
-  double dP = d->act[m->actuator_actadr[c->actuator]];
-  /* within a step the pressure runs on without the relief (advance brings it back): the force
-     sees at most what the open relief allows, p_r plus the full valve flow's override */
-  if (c->law.relief > 0.0 && fabs(dP) > c->relief_cap) dP = copysign(c->relief_cap, dP);
-  d->actuator_force[c->actuator] = c->law.area * dP;
+  d->actuator_force[c->actuator] = c->law.area * pressure(m, d, instance, c);
 }
 
 void ml_register_hydraulic(const char* name) {

@@ -13,9 +13,14 @@
 
      z1 = z0 exp(-a h) + vbar h (1 - exp(-a h)) / (a h),   a = sigma0 |vbar| / g(vbar),
 
-   stable at any step; within the step the force follows the joint's velocity at each stage with
-   z held. The step's starting position is recorded when act_dot is evaluated at the step's start
-   (its first evaluation after a reset or a step, or again at that same time).
+   stable at any step. Each evaluation inside the step (each RK4 stage's force) takes the same
+   solution to its own time t0 + t, for the mean velocity (q - q0)/t since the step's start: z is
+   not held at z0 (a zero-order hold, first order) but follows the joint, so where the bristles
+   are slow (a h << 1: presliding, sticking) z - z0 is exactly q - q0, which RK4 integrates to
+   fourth order, and where they are fast z is at its quasi-steady deflection for the current
+   motion. The step's starting time and position are recorded at every evaluation that is not one
+   of RK4's later stages (half a step or a whole step after the recorded start), so at each step's
+   start.
 
    The actuator takes no control (give it ctrllimited="false" and leave ctrl at 0). */
 #include <math.h>
@@ -95,15 +100,26 @@ static void reset(const mjModel* m, mjtNum* plugin_state, void* plugin_data, int
   plugin_state[HAVE_START] = 0.0;
 }
 
+/* The time since the recorded start of the step when this evaluation is one of RK4's later
+   stages of that step (half a step or a whole step after it), else 0: then the evaluation starts
+   a step (the first after a reset or a step, the same time again, or a state set elsewhere) and
+   its time and position are recorded. */
+static double into_step(const Bristles* b, const mjModel* m, mjData* d, mjtNum* state) {
+  if (state[HAVE_START]) {
+    double t = d->time - state[START_TIME], h = m->opt.timestep;
+    double tol = 1e-9 * (h + fabs(d->time));
+    if (fabs(t - 0.5 * h) <= tol || fabs(t - h) <= tol) return t;
+  }
+  state[START_TIME] = d->time;
+  state[START_POSITION] = d->qpos[b->qpos];
+  state[HAVE_START] = 1.0;
+  return 0.0;
+}
+
 static void act_dot(const mjModel* m, mjData* d, int instance) {
   const Bristles* b = (const Bristles*)d->plugin_data[instance];
   d->act_dot[m->actuator_actadr[b->actuator]] = 0.0;
-  mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
-  if (!state[HAVE_START] || d->time == state[START_TIME]) {
-    state[START_TIME] = d->time;
-    state[START_POSITION] = d->qpos[b->qpos];
-    state[HAVE_START] = 1.0;
-  }
+  into_step(b, m, d, d->plugin_state + m->plugin_stateadr[instance]);
 }
 
 static void advance(const mjModel* m, mjData* d, int instance) {
@@ -121,10 +137,15 @@ static void advance(const mjModel* m, mjData* d, int instance) {
   state[HAVE_START] = 0.0;
 }
 
+/* The bristle force at this evaluation: at a later stage of the step, z taken from the step's
+   start to now for the mean velocity since; at the start, z itself. */
 static void compute(const mjModel* m, mjData* d, int instance, int capability_bit) {
   const Bristles* b = (const Bristles*)d->plugin_data[instance];
   int adr = m->actuator_actadr[b->actuator];
   double z = d->act[adr];
+  mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
+  double t = into_step(b, m, d, state);
+  if (t > 0.0) z = relax(b, z, (d->qpos[b->qpos] - state[START_POSITION]) / t, t);
   double zdot = rate(b, z, d->actuator_velocity[b->actuator]);
   d->actuator_force[b->actuator] = -(b->sigma0 * z + b->sigma1 * zdot);
 }

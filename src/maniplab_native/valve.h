@@ -103,7 +103,8 @@ static inline double ml_cylinder_relief(const ml_cylinder* c, double dP) {
 
 /* (d(dP)/dt, dQ/dt) of eq. (4), Pa/s and m^3/s^2, at command u (already clipped) and joint
    speed v. `with_relief` 0 leaves the relief out: the engine plugin takes the stiff relief
-   through its regime exactly after each step instead (operator splitting, hydraulic.c). */
+   through its regime exactly at each evaluation within a step and at its end instead
+   (hydraulic.c). */
 static inline void ml_cylinder_rates_law(const ml_cylinder* c, double dP, double Q, double u,
                                          double v, int with_relief, double* rates) {
   double relief = with_relief ? ml_cylinder_relief(c, dP) : 0.0;

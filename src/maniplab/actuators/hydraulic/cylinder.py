@@ -159,7 +159,8 @@ class HydraulicCylinder(ActuatorPlugin):
         at full current where the law's root r is 1/4 (|ΔP| = 15/16 Ps; it grows without bound as
         the root vanishes, where the flow does); the valve's lag 1/τ; and the pressure decay of
         the leakage, Le E/V, and of the relief, (Le + K_r) E/V, unless ``native`` (the engine
-        plugin takes the relief's regime exactly after each step); all 1/s."""
+        plugin solves the relief's regime exactly at each stage of MuJoCo's step and at its end,
+        so it sets no step); all 1/s."""
         p = self.params
         c = p.bulk_modulus / p.volume
         slope = p.valve_gain * p.current_limit / (2.0 * p.supply_pressure * 0.25)
