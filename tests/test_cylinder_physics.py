@@ -170,9 +170,11 @@ def test_hand_geometry_and_mass_are_the_models() -> None:
 # --- 1. lifting the boom, against Radau ---------------------------------------------------------
 
 Q0, T_STEP, T_LIFT = -0.3, 0.1, 1.5
-TOLERANCE = 1e-5
-"""Largest error over the run / the reference's range over it. The plant's RK4 at its 0.1 ms
-sub-steps is ~1e-10 off here; leaving out the orifices' laminar transition alone costs ~5e-3."""
+TOLERANCES = {None: 1e-3, 1e-4: 2e-5}
+"""Largest error over the run / the reference's range over it, at the derived step (the
+accuracy the step is derived for) and at 0.1 ms (the chambers' exponential step coupled to RK4
+is second order: a tenth of the step, a hundredth of the error). Leaving out the orifices'
+laminar transition alone costs ~5e-3."""
 
 LIFTS = {  # actuator overrides, valve current (A), rod-side pressure held at the start (Pa)
     "brief": ({}, 0.6, PT),
@@ -201,17 +203,21 @@ def lift_reference(case: str) -> tuple:
     return before.sol, after.sol
 
 
+@pytest.mark.parametrize("dt", list(TOLERANCES), ids=["derived-step", "0.1ms"])
 @pytest.mark.parametrize("case", list(LIFTS))
-def test_lifting_the_boom_matches_an_independent_integration(case: str, tmp_path: Path) -> None:
-    """q, pA and pB of the plant (default step, every sample) against Radau (rtol 1e-10) of the
-    rigid boom I q̈ = τ_g(q) + F r(q) and the chambers, valve edges and spool of chambers.h
-    written here; the spec goes through a YAML file. The boom rises ≥ 0.2 rad, both chambers
-    stay above tank after the valve opens and below the relief."""
+def test_lifting_the_boom_matches_an_independent_integration(case: str, dt: float | None,
+                                                             tmp_path: Path) -> None:
+    """q, pA and pB of the plant (every millisecond) against Radau (rtol 1e-10) of the rigid
+    boom I q̈ = τ_g(q) + F r(q) and the chambers, valve edges and spool of chambers.h written
+    here; the spec goes through a YAML file. The boom rises ≥ 0.2 rad, both chambers stay above
+    tank after the valve opens and below the relief. Measured: pA 1.3e-4 at the derived step
+    (0.5 ms; 5e-4 at 1 ms), 5e-6 at 0.1 ms (RK4 at 0.1 ms, before the exponential step: 2e-5)."""
     overrides, iv, pb0 = LIFTS[case]
+    TOLERANCE = TOLERANCES[dt]
     path = tmp_path / "boom.yaml"
     path.write_text(yaml.safe_dump(boom(**overrides)))
     run = ml.simulate(ml.load_spec(path), inputs={"luff": ml.signals.step(iv, t0=T_STEP)},
-                      duration=T_LIFT, initial=initial(Q0, pb0))
+                      duration=T_LIFT, initial=initial(Q0, pb0), dt=dt, sample_dt=1e-3)
     before, after = lift_reference(case)
     t = run.t
     ref = np.where(t <= T_STEP, before(np.minimum(t, T_STEP)), after(np.maximum(t, T_STEP)))

@@ -27,6 +27,7 @@ import maniplab as ml
 from maniplab.fmu import FmuError, build_fmu
 from maniplab.fmu.build import _plugin_values
 from maniplab.fmu.template import fill, model_template
+from maniplab.mjcf_gen.accuracy import StepWarning
 from maniplab.sim.plant import Plant
 from maniplab.sim.plant_model import build_plant_model
 
@@ -158,7 +159,8 @@ def test_parameters_match_simulate_with_overrides(fmpy_python, tmp_path) -> None
 
 
 def test_bad_parameters_steps_and_inputs_fail_in_one_line(fmpy_python, tmp_path) -> None:
-    fmu = build_fmu("crane3", tmp_path / "crane3.fmu", progress=False)
+    with pytest.warns(StepWarning):  # crane3 needs 0.5 ms for 1e-3; 1 ms shows the check
+        fmu = build_fmu("crane3", tmp_path / "crane3.fmu", progress=False, step=1e-3)
     base = {"fmu": str(fmu), "stop": 0.01, "t": [0.0, 0.01], "outputs": ["q.luff"]}
     jobs = [
         base | {"out": str(tmp_path / "a.npz"), "dt": 1e-3, "start": {"leakage.luff": -1.0}},

@@ -113,9 +113,11 @@ def test_a_boom_lowered_fast_holds_its_rod_side_at_tank() -> None:
     """Lowered with the valve wide open backwards, the rod side's pressure falls to tank and
     stays there (its check valve feeds the oil P->B cannot) until the valve closes and the
     stopping boom compresses it again. Against Radau of the constrained system written here:
-    the stretch at tank within 3 ms of the reference's events, q within 1e-5 of its travel, pA
-    and pB within 1e-4 of their ranges (the plant clamps after each step: a projection of the
-    same constraint; measured 1e-7 and 8e-6).
+    the stretch at tank within 3 ms of the reference's events, q within 1e-4 of its travel, pA
+    and pB within 3e-3 of their ranges at the derived step (the plant clamps after each step: a
+    projection of the same constraint; measured 4.5e-5, 2.0e-3 and 2.5e-3: this wide-open
+    lowering into cavitation is harsher than the excitation the step is derived on, the one
+    documented case beyond 1e-3).
 
     Planted bug it catches: ``advance`` in cylinder.c without the clamp (the pressures left
     below tank): pB falls to -4.7 MPa, 3.4 times its range off the reference, q 3 % off."""
@@ -129,8 +131,8 @@ def test_a_boom_lowered_fast_holds_its_rod_side_at_tank() -> None:
     assert np.all(pb[(t > entry + 2e-3) & (t < exit_ - 2e-3)] <= PT + 1.0)  # held, not below
     assert pb.min() >= PT and np.all(pa > PT) and max(pa.max(), pb.max()) < RELIEF
     exact = _sample(ref, t)
-    # measured: 1.1e-7 (q), 5.1e-6 (pA), 8.1e-6 (pB)
-    for name, sim, tolerance, k in (("q", q, 1e-5, 0), ("pA", pa, 1e-4, 2), ("pB", pb, 1e-4, 3)):
+    # measured: 4.5e-5 (q), 2.0e-3 (pA), 2.5e-3 (pB); at 0.1 ms 1.8e-6, 7.9e-5, 1.1e-4
+    for name, sim, tolerance, k in (("q", q, 1e-4, 0), ("pA", pa, 3e-3, 2), ("pB", pb, 3e-3, 3)):
         error = np.max(np.abs(sim - exact[k])) / np.ptp(exact[k])
         assert error < tolerance, f"{name}: {error:.3g} of its range"
 

@@ -303,7 +303,7 @@ def test_crossval_answers_ctrl_c_while_the_model_compiles(job, tmp_path: Path) -
             env={"MANIPLAB_CACHE": str(cache)})
     j.wait_for(lambda: j.child("C.c"), "the compiler of the model's C kernel runs")
     assert_interrupted(j, "crossval", output)
-    assert [p.name for p in cache.iterdir()] == ["plugins"]
+    assert {p.name for p in cache.iterdir()} <= {"plugins", "steps"}  # no model entry
 
 
 def test_crossval_answers_ctrl_c_while_scipy_integrates(job, tmp_path: Path) -> None:

@@ -71,7 +71,8 @@ def test_plain_mujoco_and_rollout_reproduce_simulate(name: str, friction: str,
     plant.set_state(q=q0)
     plant.balance_pressures()
     act0 = plant.data.act.copy()
-    run = ml.simulate(plant, inputs=_inputs(spec, waves), duration=DURATION)
+    run = ml.simulate(plant, inputs=_inputs(spec, waves), duration=DURATION,
+                      sample_dt=plant.dt)  # every step, as the plain script steps
     limits = np.array([j.limits for j in spec.joints])
     assert np.all((run.q > limits[:, 0] + 1e-3) & (run.q < limits[:, 1] - 1e-3))  # inside
     assert np.ptp(run.q, axis=0).min() > 1e-3  # every joint moves

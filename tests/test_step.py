@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import maniplab as ml
+from maniplab.mjcf_gen.accuracy import StepWarning
 from maniplab.mjcf_gen.builder import arm_step_limit
 from maniplab.mjcf_gen.timestep import DEFAULT, OSCILLATION, RATE, default_step
 from maniplab.mjcf_gen.workspace import mass_matrices, poses
@@ -51,7 +52,8 @@ def test_a_stiff_arm_gets_a_finer_default_step_in_its_mjcf() -> None:
     limit = arm_step_limit(spec)
     step = ml.build_model(spec).opt.timestep
     assert step == default_step(limit) < limit.dt < 2.5 * step and step < DEFAULT
-    assert f'timestep="{step!r}"' in ml.to_mjcf(spec)
+    derived = ml.Plant(spec).dt  # the file carries the plant's step: the accuracy's, if finer
+    assert derived <= step and f'timestep="{derived!r}"' in ml.to_mjcf(spec)
 
 
 @pytest.mark.parametrize("actuator", [{"volume": 1e-7},
@@ -76,8 +78,14 @@ def test_a_stiff_cylinder_moves_as_at_a_hundred_times_finer_step(actuator: dict)
 
 
 def test_a_valve_that_floods_its_cylinder_stops_the_run_and_says_why() -> None:
-    with pytest.raises(ml.InstabilityError) as caught:
-        ml.simulate(two_link(valve_gain=10.0), inputs={"q2": 0.5}, duration=0.1)
+    """At the derived step the arm is refused before it runs (its pressures would need a step
+    of microseconds to be accurate); at a step given explicitly the run stops when the flooded
+    cylinder's pressure runs away, naming the joint and the missing relief."""
+    spec = two_link(valve_gain=10.0)
+    with pytest.raises(ml.InstabilityError, match=r"joint q\d's \w+ needs dt <= "):
+        ml.Plant(spec)
+    with pytest.warns(StepWarning), pytest.raises(ml.InstabilityError) as caught:
+        ml.simulate(spec, inputs={"q2": 0.5}, duration=0.1, dt=1e-3)
     message = str(caught.value)
     assert "joint q2" in message and "relief_pressure" in message
     assert "smaller step" not in message  # the step resolves the arm: the model is at fault

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 import maniplab as ml
-from maniplab.sim import accuracy
-from maniplab.sim.accuracy import StepWarning
+from maniplab.mjcf_gen import accuracy
+from maniplab.mjcf_gen.accuracy import StepWarning
 
 DURATION = 0.4
 

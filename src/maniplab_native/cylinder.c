@@ -40,10 +40,10 @@ typedef struct {
 
 static int g_slot = -1;  /* this plugin's registered slot */
 
-/* plugin_state of an instance: the step's start (time, states, length, rate, supply) and
-   whether it is recorded */
-enum { START_TIME, HAVE_START, START_Y, START_S = START_Y + 3, START_SDOT, START_SUPPLY,
-       NSTATE };
+/* plugin_state of an instance: the step's start (time, states, length, rate, supply pressure),
+   whether it is recorded, and the states predicted for the step's end (a shared pump's) */
+enum { START_TIME, HAVE_START, START_Y, START_S = START_Y + 3, START_SDOT, START_SUPPLY, PRED_Y,
+       NSTATE = PRED_Y + 3 };
 
 static const char* kAttributes[] = {
     "area_a", "area_b", "dead_a", "dead_b", "min_length", "stroke", "bulk_modulus", "leakage",
@@ -120,30 +120,6 @@ static void reset(const mjModel* m, mjtNum* plugin_state, void* plugin_data, int
   for (int k = 0; k < NSTATE; k++) plugin_state[k] = 0.0;
 }
 
-/* The shared supply's total draw at pressure ps: every cylinder of this plugin on the pump. */
-static double pump_draw(const mjModel* m, const mjData* d, double ps) {
-  double total = 0.0;
-  for (int i = 0; i < m->nplugin; i++) {
-    const Cylinder* c = (const Cylinder*)d->plugin_data[i];
-    if (m->plugin[i] != g_slot || c == NULL || c->pump_flow <= 0.0) continue;
-    const double* x = d->act + m->actuator_actadr[c->actuator];
-    total += ml_supply_draw(&c->law, x[2], x[0], x[1], ps);
-  }
-  return total;
-}
-
-/* The shared supply's pressure: its setting, or lower where the valves would draw more than
-   Q_max there (the draw rises with ps: bisection down to the tank pressure). */
-static double pump_pressure(const mjModel* m, const mjData* d, const Cylinder* c) {
-  double high = c->law.supply, low = c->law.tank;
-  if (pump_draw(m, d, high) <= c->pump_flow) return high;
-  for (int k = 0; k < 100 && high - low > 1e-12 * c->law.supply; k++) {
-    double mid = 0.5 * (low + high);
-    if (pump_draw(m, d, mid) > c->pump_flow) high = mid; else low = mid;
-  }
-  return 0.5 * (low + high);
-}
-
 /* The cylinder's rate ds/dt from the joint velocities d->qvel and the actuator's moments. */
 static double length_rate(const mjModel* m, const mjData* d, const Cylinder* c) {
   int start = d->moment_rowadr[c->output], count = d->moment_rownnz[c->output];
@@ -154,6 +130,38 @@ static double length_rate(const mjModel* m, const mjData* d, const Cylinder* c) 
   return rate;
 }
 
+/* The states a cylinder's valve draws with: d->act's, or (predicted) its plugin_state's. */
+static const double* drawing_states(const mjModel* m, const mjData* d, int i, const Cylinder* c,
+                                    int predicted) {
+  if (predicted) return d->plugin_state + m->plugin_stateadr[i] + PRED_Y;
+  return d->act + m->actuator_actadr[c->actuator];
+}
+
+/* The shared supply's total draw at pressure ps: every cylinder of this plugin on the pump, at
+   its current (or predicted) states. */
+static double pump_draw(const mjModel* m, const mjData* d, double ps, int predicted) {
+  double total = 0.0;
+  for (int i = 0; i < m->nplugin; i++) {
+    const Cylinder* c = (const Cylinder*)d->plugin_data[i];
+    if (m->plugin[i] != g_slot || c == NULL || c->pump_flow <= 0.0) continue;
+    const double* x = drawing_states(m, d, i, c, predicted);
+    total += ml_supply_draw(&c->law, x[2], x[0], x[1], ps);
+  }
+  return total;
+}
+
+/* The shared supply's pressure: its setting, or lower where the valves would draw more than
+   Q_max there (the draw rises with ps: bisection down to the tank pressure). */
+static double pump_pressure(const mjModel* m, const mjData* d, const Cylinder* c, int predicted) {
+  double high = c->law.supply, low = c->law.tank;
+  if (pump_draw(m, d, high, predicted) <= c->pump_flow) return high;
+  for (int k = 0; k < 100 && high - low > 1e-12 * c->law.supply; k++) {
+    double mid = 0.5 * (low + high);
+    if (pump_draw(m, d, mid, predicted) > c->pump_flow) high = mid; else low = mid;
+  }
+  return 0.5 * (low + high);
+}
+
 static void act_dot(const mjModel* m, mjData* d, int instance) {
   const Cylinder* c = (const Cylinder*)d->plugin_data[instance];
   int adr = m->actuator_actadr[c->actuator];
@@ -162,7 +170,7 @@ static void act_dot(const mjModel* m, mjData* d, int instance) {
   double s = d->actuator_length[c->output], sdot = d->actuator_velocity[c->output];
   const double* y = d->act + adr;
   if (!state[HAVE_START] || d->time == state[START_TIME]) { /* a step starts here */
-    if (c->pump_flow > 0.0) law.supply = pump_pressure(m, d, c);
+    if (c->pump_flow > 0.0) law.supply = pump_pressure(m, d, c, 0);
     state[START_TIME] = d->time;
     state[HAVE_START] = 1.0;
     for (int i = 0; i < 3; i++) state[START_Y + i] = y[i];
@@ -175,6 +183,44 @@ static void act_dot(const mjModel* m, mjData* d, int instance) {
                         d->act_dot + adr);
 }
 
+/* Whether `instance` is the first cylinder on the shared pump with a recorded step start. */
+static int first_on_pump(const mjModel* m, const mjData* d, int instance) {
+  for (int i = 0; i < m->nplugin; i++) {
+    const Cylinder* c = (const Cylinder*)d->plugin_data[i];
+    if (m->plugin[i] != g_slot || c == NULL || c->pump_flow <= 0.0) continue;
+    if (!d->plugin_state[m->plugin_stateadr[i] + HAVE_START]) continue;
+    return i == instance;
+  }
+  return 0;
+}
+
+/* A shared pump's pressure over the step, second order: every cylinder on it predicted to the
+   step's end at the start's pressure, the pressure at the predicted states, and each cylinder's
+   recorded supply pressure set to the mean of the two (the first cylinder's `advance` does this
+   for all, before any of them has moved). */
+static void pump_over_step(const mjModel* m, mjData* d) {
+  double h = m->opt.timestep, start = 0.0;
+  const Cylinder* any = NULL;
+  for (int i = 0; i < m->nplugin; i++) {
+    const Cylinder* c = (const Cylinder*)d->plugin_data[i];
+    if (m->plugin[i] != g_slot || c == NULL || c->pump_flow <= 0.0) continue;
+    mjtNum* state = d->plugin_state + m->plugin_stateadr[i];
+    ml_chambers law = c->law;
+    law.supply = start = state[START_SUPPLY];
+    double s0 = state[START_S], sdot0 = state[START_SDOT], sdot1 = length_rate(m, d, c);
+    ml_chambers_step(&law, state + START_Y, ml_control(m, d, c->actuator), s0, sdot0,
+                     s0 + 0.5 * h * (sdot0 + sdot1), sdot1, h, 1, state + PRED_Y);
+    any = c;
+  }
+  if (any == NULL) return;
+  double mean = 0.5 * (start + pump_pressure(m, d, any, 1));
+  for (int i = 0; i < m->nplugin; i++) {
+    const Cylinder* c = (const Cylinder*)d->plugin_data[i];
+    if (m->plugin[i] != g_slot || c == NULL || c->pump_flow <= 0.0) continue;
+    d->plugin_state[m->plugin_stateadr[i] + START_SUPPLY] = mean;
+  }
+}
+
 static void advance(const mjModel* m, mjData* d, int instance) {
   const Cylinder* c = (const Cylinder*)d->plugin_data[instance];
   mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
@@ -182,6 +228,7 @@ static void advance(const mjModel* m, mjData* d, int instance) {
   double h = m->opt.timestep;
   double since = d->time - state[START_TIME];  /* MuJoCo has advanced the time by h */
   if (state[HAVE_START] && fabs(since - h) <= 1e-9 * (h + fabs(d->time))) {
+    if (c->pump_flow > 0.0 && first_on_pump(m, d, instance)) pump_over_step(m, d);
     ml_chambers law = c->law;
     law.supply = state[START_SUPPLY];
     double s0 = state[START_S], sdot0 = state[START_SDOT], sdot1 = length_rate(m, d, c);

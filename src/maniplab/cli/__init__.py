@@ -71,8 +71,18 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def _run(args: argparse.Namespace) -> int:
     """Run the sub-command; bad input becomes one line on stderr and status 2."""
+    import warnings
+
     from maniplab.errors import ManiplabError
 
+    def one_line(message, category, filename, lineno, file=None, line=None) -> None:
+        if issubclass(category, UserWarning) and category.__module__.startswith("maniplab"):
+            print(f"maniplab {args.command}: warning: {message}", file=sys.stderr)
+        else:
+            default(message, category, filename, lineno, file, line)
+
+    default = warnings.showwarning
+    warnings.showwarning = one_line  # maniplab's warnings as one line, like its errors
     try:
         return args.func(args)
     except ManiplabError as exc:

@@ -33,6 +33,7 @@ import ctypes
 import dataclasses
 import math
 import os
+import warnings
 from collections.abc import Mapping
 from typing import Any
 
@@ -43,11 +44,11 @@ from maniplab.actuators import CapabilityError
 from maniplab.builtin import resolve_spec
 from maniplab.friction import FrictionModel
 from maniplab.mjcb import suspended
+from maniplab.mjcf_gen import accuracy
+from maniplab.mjcf_gen.accuracy import AccurateStep, StepWarning, accurate_step
 from maniplab.mjcf_gen.builder import arm_step_limit
 from maniplab.mjcf_gen.timestep import default_step, round_down
 from maniplab.sim import native
-from maniplab.sim.accuracy import accurate_step, measuring
-from maniplab.sim.accuracy import check as check_accuracy
 from maniplab.sim.actuation import Actuation
 from maniplab.sim.budget import check_step
 from maniplab.sim.callbacks import PluginCallbacks, PythonHooks
@@ -133,12 +134,9 @@ class Plant:
                 f"{self.step_limit.describe()}, below the {MIN_STEP:g} s a simulation can afford: "
                 f"check that actuator's parameters{where} (an oil volume or valve far off?)",
                 time=0.0, joint=self.step_limit.joint, dt=dt or self.step_limit.dt, resolved=True)
-        self.accuracy = None if measuring() else accurate_step(self.spec,
-                                                               default_step(self.step_limit))
-        """The step the arm's accuracy allows (:mod:`~maniplab.sim.accuracy`), or None in the
-        runs that measure it."""
-        self.dt = (given if given is not None else
-                   self.accuracy.dt if self.accuracy else default_step(self.step_limit))
+        self.accuracy = accurate_step(self.spec, default_step(self.step_limit))
+        """The step the arm's accuracy allows (:mod:`~maniplab.mjcf_gen.accuracy`)."""
+        self.dt = given if given is not None else self.accuracy.dt
         ratio = self.dt / self.step_limit.dt * (1.0 - 1e-9)  # inf for a dt of 1e308
         self.substeps = max(1, math.ceil(ratio)) if ratio <= MAX_SUBSTEPS else MAX_SUBSTEPS + 1
         if self.substeps > MAX_SUBSTEPS:
@@ -146,8 +144,7 @@ class Plant:
                 f"{self.step_limit.describe()}: more than {MAX_SUBSTEPS} sub-steps per step",
                 time=0.0, joint=self.step_limit.joint, dt=self.dt,
                 works=round_down(self.step_limit.dt * MAX_SUBSTEPS))
-        if self.accuracy:
-            check_accuracy(self.accuracy, dt, self.dt / self.substeps, self.spec.source)
+        _check_accuracy(self.accuracy, given, self.dt / self.substeps, self.spec.source)
         self.integrator = _integrator(integrator)
         self.n = self.spec.n
         self.joint_names = self.spec.joint_names
@@ -577,3 +574,22 @@ def _integrator(name: str) -> int:
 def integrator_name(value: int) -> str:
     """'RK4', 'Euler', 'implicit' or 'implicitfast' for a ``mujoco.mjtIntegrator`` value."""
     return next(k for k, v in _INTEGRATORS.items() if int(v) == int(value))
+
+
+def _check_accuracy(found: AccurateStep, given: float | None, mujoco_step: float,
+                    source: str | None) -> None:
+    """Refuse an arm whose accuracy needs a step below what a run can afford (the derived step),
+    or warn when a ``given`` step makes MuJoCo's steps (``mujoco_step``, s) coarser than the
+    accuracy allows."""
+    where = f" in {source}" if source else ""
+    if given is None and not found.met:
+        raise InstabilityError(
+            f"joint {found.joint}'s {found.signal} needs dt <= {found.needs:.2g} s to stay within "
+            f"{accuracy.TOLERANCE:g} of its range, below the {accuracy.SMALLEST:g} s a "
+            f"simulation can afford: check that actuator's parameters{where} (a tiny oil volume "
+            "or a huge valve?), or give dt explicitly to run less accurately", time=0.0,
+            joint=found.joint or None, dt=found.dt, resolved=True)
+    if given is not None and mujoco_step > found.needs * 1.000001:
+        warnings.warn(f"dt {mujoco_step:g} s is coarser than the {found.needs:.2g} s that keeps "
+                      f"joint {found.joint}'s {found.signal} within {accuracy.TOLERANCE:g} of "
+                      "its range", StepWarning, stacklevel=4)
