@@ -78,7 +78,16 @@ def test_every_signal_at_the_derived_step_is_within_1e_3_of_its_range(name, volu
     assert max(found.values()) <= 1e-3, found
 
 
-def test_an_arm_whose_accuracy_needs_a_step_too_fine_is_refused_in_one_line(monkeypatch) -> None:
+@pytest.fixture
+def fresh_memo():
+    """The process's memo of derived steps, empty before and after the test."""
+    accuracy.accurate_step.cache_clear()
+    yield
+    accuracy.accurate_step.cache_clear()
+
+
+def test_an_arm_whose_accuracy_needs_a_step_too_fine_is_refused_in_one_line(
+        monkeypatch, fresh_memo) -> None:
     """With a tolerance of 1e-7 and the finest affordable step at 0.5 ms, the excavator (which
     then needs about 10 µs) is refused, naming the joint, the state and the step it needs; given
     explicitly, the step runs, with a warning."""
@@ -94,7 +103,7 @@ def test_an_arm_whose_accuracy_needs_a_step_too_fine_is_refused_in_one_line(monk
         ml.Plant(spec, dt=5e-4)
 
 
-def test_the_derived_step_is_cached_per_arm(tmp_path, monkeypatch) -> None:
+def test_the_derived_step_is_cached_per_arm(tmp_path, monkeypatch, fresh_memo) -> None:
     monkeypatch.setenv("MANIPLAB_CACHE", str(tmp_path))
     spec = ml.builtin_spec("excavator")
     first = ml.Plant(spec).accuracy

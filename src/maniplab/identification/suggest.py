@@ -388,12 +388,12 @@ class _Study:
             out.append(inside or moves[:2])
         return out
 
-    def spec_at(self, i: int, h: float) -> ManipulatorSpec:
-        """The spec with parameter i moved by h of its start (i = -1: the spec as it is)."""
+    def moved(self, i: int, h: float) -> dict[str, float]:
+        """The override that moves parameter i by h of its start (i = -1: none)."""
         if i < 0:
-            return self.spec
+            return {}
         p = self.parameters[i]
-        return self.spec.with_overrides({p.path: float(p.start * (1.0 + h))})
+        return {p.path: float(p.start * (1.0 + h))}
 
     def simulate(self, candidate: Candidate, i: int, h: float, initial: dict[str, Any]) -> Any:
         """The run of ``candidate`` with parameter i moved by h (i = -1: none), or the error's
@@ -401,8 +401,9 @@ class _Study:
         from maniplab.sim.simulate import simulate
 
         try:
-            return simulate(self.spec_at(i, h), inputs=candidate.signals(), duration=self.duration,
-                            initial=initial, sample_dt=self.sample_dt, progress=False)
+            return simulate(self.spec, overrides=self.moved(i, h), inputs=candidate.signals(),
+                            duration=self.duration, initial=initial, sample_dt=self.sample_dt,
+                            progress=False)
         except ManiplabError as e:
             return str(e)
 

@@ -21,9 +21,11 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import functools
 import hashlib
 import json
 import math
+from collections.abc import Callable
 from pathlib import Path
 
 import mujoco
@@ -92,10 +94,16 @@ class AccurateStep:
                 f"its range")
 
 
-def accurate_step(spec: ManipulatorSpec, stable: float) -> AccurateStep:
+@functools.lru_cache(maxsize=256)
+def accurate_step(spec: ManipulatorSpec, stable: float,
+                  compile_arm: Callable[[ManipulatorSpec], mujoco.MjModel]) -> AccurateStep:
     """The largest step at most ``stable`` (s, the stability limit's default step) that keeps
-    the excitation's run within the tolerance; cached on disk."""
-    if stable < SMALLEST:  # too fine to measure affordably: the stability limit's step
+    the excitation's run within the tolerance; cached on disk (and in the process).
+    ``compile_arm(spec)`` compiles an arm's MuJoCo model (:mod:`~maniplab.mjcf_gen.builder`'s).
+    An arm with actuators written in Python (whose states MuJoCo integrates through the plant's
+    callbacks) is not measured: the stability limit's step."""
+    python = any(model_of(j).mujoco_plugin() is None and model_of(j).states for j in spec.joints)
+    if stable < SMALLEST or python:  # too fine to measure affordably, or not in plain MuJoCo
         return AccurateStep(stable, needs=stable)
     path = _cache_path(spec, stable)
     try:
@@ -104,15 +112,16 @@ def accurate_step(spec: ManipulatorSpec, stable: float) -> AccurateStep:
             return found
     except (OSError, ValueError, TypeError):
         pass
-    found = _search(spec, stable)
+    found = _search(spec, stable, compile_arm)
     with contextlib.suppress(OSError):
         path.parent.mkdir(parents=True, exist_ok=True)
         write_text(path, json.dumps(dataclasses.asdict(found)))
     return found
 
 
-def _search(spec: ManipulatorSpec, stable: float) -> AccurateStep:
-    model, labels = _model(spec)
+def _search(spec: ManipulatorSpec, stable: float,
+            compile_arm: Callable[[ManipulatorSpec], mujoco.MjModel]) -> AccurateStep:
+    model, labels = _model(spec, compile_arm)
     if not labels:
         return AccurateStep(stable, needs=stable)  # no actuator states: the mechanics alone
     h = stable
@@ -134,14 +143,11 @@ def excitation(limits: np.ndarray, t: np.ndarray) -> np.ndarray:
     return np.outer(sign, level)
 
 
-def _model(spec: ManipulatorSpec) -> tuple[mujoco.MjModel, list[tuple[str, str]]]:
+def _model(spec: ManipulatorSpec, compile_arm: Callable[[ManipulatorSpec], mujoco.MjModel]
+           ) -> tuple[mujoco.MjModel, list[tuple[str, str]]]:
     """The MuJoCo model of ``spec`` without stick/slip friction, and a label (state, joint) for
     each signal the estimate compares: the joint positions, then every actuator state."""
-    from maniplab.mjcf_gen.builder import _arm
-    from maniplab.mjcf_gen.checks import compile_quietly
-
-    smooth_spec = smooth(spec)
-    model, _ = compile_quietly(_arm(smooth_spec), smooth_spec)
+    model = compile_arm(smooth(spec))
     labels = [("q", name) for name in spec.joint_names]
     states = 0
     for i in range(model.nu):
@@ -209,16 +215,27 @@ def _estimate(coarse: np.ndarray, fine: np.ndarray) -> tuple[float, int]:
 
 
 def _cache_path(spec: ManipulatorSpec, stable: float) -> Path:
-    from maniplab_native.build import cache_root, sources
+    from maniplab_native.build import cache_root
 
     digest = hashlib.sha256()
     spec_data = spec.to_dict()
     spec_data.pop("control", None)
     spec_data.pop("name", None)
     digest.update(json.dumps(spec_data, sort_keys=True).encode())
-    digest.update(repr((stable, TOLERANCE, SAFETY, DURATION, SWITCH)).encode())
+    digest.update(repr((stable, TOLERANCE, SAFETY, DURATION, SWITCH, AMPLITUDE)).encode())
+    digest.update(_sources_digest().encode())
+    return cache_root() / "steps" / f"{digest.hexdigest()[:32]}.json"
+
+
+@functools.lru_cache(maxsize=1)
+def _sources_digest() -> str:
+    """SHA-256 of the sources that build and integrate the model: the C plugins, this package
+    and the actuators."""
+    from maniplab_native.build import sources
+
+    digest = hashlib.sha256()
     here = Path(__file__).resolve().parent
     for source in [*sources(), *sorted(here.glob("*.py")),
                    *sorted((here.parent / "actuators").rglob("*.py"))]:
         digest.update(source.name.encode() + b"\0" + source.read_bytes())
-    return cache_root() / "steps" / f"{digest.hexdigest()[:32]}.json"
+    return digest.hexdigest()

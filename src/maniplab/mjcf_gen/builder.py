@@ -59,6 +59,7 @@ from maniplab.builtin import resolve_spec
 from maniplab.friction import FrictionModel
 from maniplab.mjcb import suspended
 from maniplab.mjcf_gen import checks, names, visuals
+from maniplab.mjcf_gen.accuracy import AccurateStep, accurate_step
 from maniplab.mjcf_gen.timestep import DEFAULT, StepLimit, default_step, step_limit
 from maniplab.spec import Body, EndEffector, Joint, ManipulatorSpec, inertia_matrix, model_of
 
@@ -76,11 +77,13 @@ _TRIANGLE_MARGIN = 1e-12  # relative; MuJoCo's own eigen-solver errs by ~1e-15
 SpecLike = ManipulatorSpec | str | os.PathLike[str]
 
 
-def build_mjspec(spec: SpecLike) -> mujoco.MjSpec:
+def build_mjspec(spec: SpecLike, timestep: float | None = None) -> mujoco.MjSpec:
     """The MuJoCo model of ``spec`` as an (uncompiled) MjSpec.
 
     Args:
         spec: a spec, a spec file or a built-in spec name.
+        timestep: its ``option.timestep``, s; default: the step the plant derives for the arm
+            (stability and accuracy, :mod:`~maniplab.mjcf_gen.accuracy`; measured once per arm).
 
     Returns:
         A fresh MjSpec; compile it with ``.compile()`` or use :func:`build_model`, which also checks it.
@@ -90,8 +93,20 @@ def build_mjspec(spec: SpecLike) -> mujoco.MjSpec:
     """
     spec = resolve_spec(spec)
     s = _arm(spec)
-    s.option.timestep = default_step(arm_step_limit(spec))
+    s.option.timestep = timestep if timestep is not None else arm_accuracy(spec).dt
     return s
+
+
+def arm_accuracy(spec: ManipulatorSpec) -> AccurateStep:
+    """The step the arm's accuracy allows within its stability limit's default step
+    (:func:`~maniplab.mjcf_gen.accuracy.accurate_step`, measured once per arm)."""
+    return accurate_step(spec, default_step(arm_step_limit(spec)), _compiled_arm)
+
+
+def _compiled_arm(spec: ManipulatorSpec) -> mujoco.MjModel:
+    """The compiled MuJoCo model of ``spec``, not checked, its warnings kept quiet."""
+    with suspended():
+        return checks.compile_quietly(_arm(spec), spec)[0]
 
 
 @functools.lru_cache(maxsize=64)

@@ -45,9 +45,9 @@ from maniplab.builtin import resolve_spec
 from maniplab.friction import FrictionModel
 from maniplab.mjcb import suspended
 from maniplab.mjcf_gen import accuracy
-from maniplab.mjcf_gen.accuracy import AccurateStep, StepWarning, accurate_step
-from maniplab.mjcf_gen.builder import arm_step_limit
-from maniplab.mjcf_gen.timestep import default_step, round_down
+from maniplab.mjcf_gen.accuracy import AccurateStep, StepWarning
+from maniplab.mjcf_gen.builder import arm_accuracy, arm_step_limit
+from maniplab.mjcf_gen.timestep import round_down
 from maniplab.sim import native
 from maniplab.sim.actuation import Actuation
 from maniplab.sim.budget import check_step
@@ -107,6 +107,8 @@ class Plant:
             :mod:`~maniplab.mjcf_gen.timestep`). A step coarser than that is taken in as many
             MuJoCo sub-steps as it needs.
         integrator: MuJoCo integrator name, "RK4" (default), "Euler", "implicit" or "implicitfast".
+        accuracy: the step the arm's accuracy allows, when known (a variant of an arm runs at the
+            arm's: a sweep's, an identification's); default: measured on this arm (cached).
 
     Attributes:
         spec: the arm.  dt: s.  n: number of joints.
@@ -124,7 +126,7 @@ class Plant:
     """
 
     def __init__(self, spec: SpecLike, *, dt: float | None = None,
-                 integrator: str = "RK4") -> None:
+                 integrator: str = "RK4", accuracy: AccurateStep | None = None) -> None:
         self.spec = resolve_spec(spec)
         given = check_step(dt) if dt is not None else None
         self.step_limit = arm_step_limit(self.spec)
@@ -134,7 +136,7 @@ class Plant:
                 f"{self.step_limit.describe()}, below the {MIN_STEP:g} s a simulation can afford: "
                 f"check that actuator's parameters{where} (an oil volume or valve far off?)",
                 time=0.0, joint=self.step_limit.joint, dt=dt or self.step_limit.dt, resolved=True)
-        self.accuracy = accurate_step(self.spec, default_step(self.step_limit))
+        self.accuracy = accuracy or arm_accuracy(self.spec)
         """The step the arm's accuracy allows (:mod:`~maniplab.mjcf_gen.accuracy`)."""
         self.dt = given if given is not None else self.accuracy.dt
         ratio = self.dt / self.step_limit.dt * (1.0 - 1e-9)  # inf for a dt of 1e308

@@ -44,8 +44,7 @@ DISABLED = ("limit", "frictionloss", "contact", "autoreset")
 
 def plant_mjspec(spec: ManipulatorSpec, *, dt: float, integrator: int) -> mujoco.MjSpec:
     """The MjSpec that :func:`build_plant_model` compiles (the arguments are the same)."""
-    s = build_mjspec(spec)
-    s.option.timestep = dt
+    s = build_mjspec(spec, timestep=dt)
     s.option.integrator = integrator
     for name in DISABLED:
         s.option.disableflags |= getattr(mujoco.mjtDisableBit, f"mjDSBL_{name.upper()}")

@@ -19,6 +19,7 @@ import numpy as np
 
 from maniplab.atomic import atomic_path, check_target
 from maniplab.builtin import resolve_spec
+from maniplab.mjcf_gen.builder import arm_accuracy
 from maniplab.mjcf_gen.names import END_EFFECTOR
 from maniplab.progress import Progress
 from maniplab.sim import budget, native, recorder, store
@@ -200,9 +201,11 @@ def _plant(spec_or_plant: SpecLike | Plant, *, dt: float | None, overrides: Any,
             raise InputError(f"the plant's integrator is {have!r}; got integrator={integrator!r}")
         return plant
     spec = resolve_spec(spec_or_plant)
-    if overrides:
+    known = None
+    if overrides:  # a variant runs at its arm's step: one measurement for a whole sweep
+        known = arm_accuracy(spec)
         spec = spec.with_overrides(overrides)
-    return Plant(spec, dt=dt, integrator=integrator or "RK4")
+    return Plant(spec, dt=dt, integrator=integrator or "RK4", accuracy=known)
 
 
 def _set_initial(plant: Plant, initial: Mapping[str, Any]) -> None:
