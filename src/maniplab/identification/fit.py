@@ -29,12 +29,24 @@ signal's weight is its measured precision.
 The covariance of the estimate is 2 s² H⁻¹, s² the residual variance per degree of freedom and H
 the Hessian of the cost Σ r²: secants on each axis over which the cost rises by about 9 s²,
 correlations from the Gauss-Newton Hessian 2 JᵀJ. Then each parameter's profile is walked (the
-cost along its axis, the others held) until the data reject it: a value is accepted while its
-cost is within 3.84 s² + 2ρ of the lowest seen, ρ the height of the largest step or spike of the
-cost near its accepted values (zero on a smooth valley). Where the profile reaches further than
-1.96 of that axis's own standard deviations, the parameter's standard deviation is widened by
-the ratio. The confidence intervals are ±1.96 standard deviations, the correlation from the
-covariance.
+cost along its axis, the others held, in steps of half the larger of its secant and Gauss-Newton
+standard deviations) until the data reject it: a value is accepted while its cost is within
+3.84 s² + 2ρ of the lowest seen, ρ the height of the largest step or spike of the cost near its
+accepted values that the valley's curvature does not explain (zero on a smooth valley). Where the
+profile reaches further than 1.96 of that axis's own standard deviations, the parameter's
+standard deviation is widened by the ratio.
+
+Where the steps are higher than the interval's own 3.84 s² and the walk meets spikes that high
+(costs above or below both neighbours), stick/slip has made the simulation follow the parameter
+chaotically: a change of a millionth moves when a joint sticks, the fit sits in the narrow valley
+of one draw of that chaos, its secants measure that valley and the Jacobian's differences span two
+draws, and neither says how well the data place the parameter (intervals of a millionth of the
+value, which missed the truth). So the residuals are simulated at 48 values over ±100 of the walk's
+standard deviations, each sample is regressed on the parameter (a parabola), and the scatter about
+the parabolas along their slope g, of variance τ², is taken as a second noise: the data hold one
+draw of it and the fit another, so the parameter's variance grows by 2τ²/|g|² (and the profile's
+reach, whose costs are draws of the chaos, does not widen it). The confidence intervals are ±1.96
+standard deviations, the correlation from the covariance.
 """
 
 from __future__ import annotations
@@ -78,6 +90,11 @@ rounds over the parameters."""
 PROFILE_BATCHES = 8
 """A profile walks at most this many batches of 8 steps each way (half a standard deviation in the
 first, doubling from batch to batch)."""
+
+CHAOS_SPAN, CHAOS_POINTS = 100.0, 48
+"""The scan of :meth:`_Problem.chaos`: 48 values evenly over ±100 of the walk's standard
+deviations (the Gauss-Newton ones where stick/slip steps the cost: ±1 % for the payload of an
+erector)."""
 
 WIDENED = 1.5
 """A profile that widens an interval by more than this says so in a warning."""
@@ -386,9 +403,17 @@ class _Problem:
         H = self.hessian(x, cost, variance, J, pool)
         cov_x = 2.0 * variance * self._inverse(H, J)[:p, :p]
         conditional = np.sqrt(2.0 * variance / np.maximum(np.diag(H)[:p], 1e-300))
-        reach = self.profile_reach(x, cost, variance, conditional, pool)
-        widen = np.maximum(1.0, reach / (1.96 * conditional))
-        cov_x = cov_x * np.outer(widen, widen)
+        # the Gauss-Newton one, of the Jacobian's 1 % steps that stride over stick/slip's narrow
+        # valleys: the scale of the walks also where the secants fell into one such valley (or
+        # found none: a rough cost can be lower on both sides of the fit)
+        smooth = np.sqrt(variance / np.maximum(np.einsum("ij,ij->j", J[:, :p], J[:, :p]), 1e-300))
+        scale = np.where(np.diag(H)[:p] > 0.0, np.maximum(conditional, smooth), smooth)
+        reach, chaos = self.profile_reach(x, cost, variance, scale, pool)
+        # where the chaos was measured, the profile's costs are its draws: the regression says
+        widen = np.where(chaos > 0.0, 1.0, np.maximum(1.0, reach / (1.96 * conditional)))
+        local = np.diag(cov_x).copy()
+        cov_x = cov_x * np.outer(widen, widen) + np.diag(chaos)
+        widen = np.sqrt(np.diag(cov_x) / np.maximum(local, 1e-300))
         starts = np.array([p.start for p in self.parameters])
         std = np.sqrt(np.clip(np.diag(cov_x), 0.0, None)) * np.abs(starts)
         scale = np.sqrt(np.clip(np.diag(cov_x), 1e-300, None))
@@ -414,32 +439,82 @@ class _Problem:
         return np.asarray(correlation * np.outer(root, root))
 
     def profile_reach(self, x: np.ndarray, cost: float, variance: float, sigma: np.ndarray,
-                      pool: Threads) -> np.ndarray:
+                      pool: Threads) -> tuple[np.ndarray, np.ndarray]:
         """Per parameter, how far (in x) its value can move, the others held, before the data
-        reject it: the cost is walked along each axis in steps of half its conditional standard
-        deviation ``sigma`` (p,) until it stays above the lowest cost + 3.84 s² + 2ρ. ρ is the
-        largest spike or dip on any axis's walk (a cost above or below both its neighbours, one of
-        the three within the accepted costs): zero on a smooth valley, else the height of the steps stick/slip puts in the cost (a
-        joint that sticks one plant step earlier), by which the true values may sit above the
-        best. The walks are taken again once every axis has given its spikes."""
+        reject it, and the variance (in x²) stick/slip's chaos adds to its estimate.
+
+        The cost is walked along each axis in steps of half the standard deviation ``sigma``
+        (p,) until it stays above the lowest cost + 3.84 s² + 2ρ. ρ is the largest jump on any
+        axis's walk that the valley's curvature does not explain (:func:`_jumps`, among the
+        triples of neighbours within the accepted costs): about 0 on a smooth valley, else the
+        height of the steps and spikes stick/slip puts in the cost (a joint that sticks one plant
+        step earlier), by which the true values may sit above the best. The walks are taken again
+        once every axis has given its jumps. Where 2ρ is higher than the 3.84 s² of the interval
+        itself, on any axis whose own walk has spikes that high (a cost above or below both its
+        neighbours: chaos, not a staircase), :meth:`chaos` measures how much of the signals'
+        dependence on the parameter is chaos."""
         walks: list[dict[float, float]] = [{0.0: cost} for _ in sigma]
 
-        def threshold() -> float:
-            lowest = min(min(w.values()) for w in walks)
+        def lowest() -> float:
+            return min(min(w.values()) for w in walks)
+
+        def allowance() -> float:
+            """2ρ: twice the largest jump that reaches down into the accepted costs."""
             gap = CHI2 * variance
-            for _ in range(8):  # spikes that start inside the accepted costs widen them
-                wider = CHI2 * variance + 2.0 * max(_spikes(w, lowest + gap) for w in walks)
+            for _ in range(8):  # jumps that start inside the accepted costs widen them
+                wider = CHI2 * variance + 2.0 * max(_jumps(w, lowest() + gap) for w in walks)
                 if wider == gap:
                     break
                 gap = wider
-            return lowest + gap
+            return gap - CHI2 * variance
+
+        def threshold() -> float:
+            return lowest() + CHI2 * variance + allowance()
 
         for _ in range(2):
             for i, walked in enumerate(walks):
                 for side in (-1.0, 1.0):
                     self._walk(x, i, side * 0.5 * sigma[i], walked, threshold, pool)
         limit = max(threshold(), cost + CHI2 * variance)  # the fit itself is never rejected
-        return np.array([max(abs(d) for d, c in w.items() if c <= limit) for w in walks])
+        reach = np.array([max(abs(d) for d, c in w.items() if c <= limit) for w in walks])
+        stepped = allowance() > CHI2 * variance
+        chaos = np.array([self.chaos(x, i, sigma[i], pool)
+                          if stepped and 2.0 * _spikes(w, limit) > CHI2 * variance else 0.0
+                          for i, w in enumerate(walks)])
+        return reach, chaos
+
+    def chaos(self, x: np.ndarray, i: int, sigma: float, pool: Threads) -> float:
+        """The variance (in x²) that stick/slip's chaos adds to parameter i's estimate.
+
+        Under stick/slip the simulated signals follow a parameter chaotically: a change of a
+        millionth moves when a joint sticks, and with it every later sample, by as much as a
+        change of a percent. Each value of the parameter then draws its own chaos, one as likely
+        to match the data as another, and the fit finds the narrow valley of one draw: its cost
+        rises within a millionth, and neither its curvature nor the walk's threshold describe how
+        well the data place the parameter. The residuals are simulated at
+        :data:`CHAOS_POINTS` values evenly over ±:data:`CHAOS_SPAN` ``sigma`` (the others held)
+        and each sample is regressed on the parameter (a parabola): the slope g is what the
+        parameter does to the signals, the scatter about the parabolas the chaos. Along g, the
+        chaos is a second noise of variance τ²; the data hold one draw of it and the fit another,
+        so the estimate's variance grows by 2τ²/|g|²."""
+        lower, upper = self.bounds()
+        span = CHAOS_SPAN * sigma
+        d = span * np.linspace(-1.0, 1.0, CHAOS_POINTS)
+        d = d[(x[i] + d > lower[i]) & (x[i] + d < upper[i])]
+        rows = [(v, r) for v, r in zip(d, self.residuals([_along(x, i, x[i] + v) for v in d], pool))
+                if not np.all(r == FAILED)]  # a plant that fails is no draw of the chaos
+        if len(rows) < 8:
+            return 0.0
+        d = np.array([v for v, _ in rows]) / span
+        residuals = np.array([r for _, r in rows])
+        design = np.column_stack([np.ones_like(d), d, d * d])
+        fit = np.linalg.lstsq(design, residuals, rcond=None)[0]
+        slope = fit[1] / span
+        norm = float(slope @ slope)
+        if norm <= 0.0:
+            return 0.0
+        along = (residuals - design @ fit) @ slope / math.sqrt(norm)
+        return 2.0 * float(along @ along) / (len(d) - 3) / norm
 
     def _walk(self, x: np.ndarray, i: int, step: float, walked: dict[float, float],
               threshold: Callable[[], float], pool: Threads) -> None:
@@ -519,6 +594,27 @@ def _along(x: np.ndarray, i: int, value: float) -> np.ndarray:
     return point
 
 
+def _jumps(walked: dict[float, float], ceiling: float) -> float:
+    """The largest jump of the cost along a walk that its valley's curvature does not explain,
+    among the triples of neighbours that reach down to ``ceiling`` (0 when none): how far the
+    middle cost lies off the chord of the other two, less what the walk's typical (median)
+    curvature puts there. A spike or dip of height h gives h, a step of height h (a joint that
+    sticks one plant step earlier on one side of it) h/2 on each triple around it, a smooth
+    valley about 0."""
+    d = np.array(sorted(walked))
+    costs = np.array([walked[v] for v in d])
+    if len(costs) < 3:
+        return 0.0
+    left, right = d[1:-1] - d[:-2], d[2:] - d[1:-1]
+    off = costs[1:-1] - (costs[:-2] * right + costs[2:] * left) / (left + right)
+    near = np.minimum(costs[1:-1], np.minimum(costs[:-2], costs[2:])) <= ceiling
+    if not near.any():
+        return 0.0
+    bend = (left * right)[near]  # a parabola a d² lies a·left·right below its chord
+    curvature = float(np.median(-off[near] / bend))
+    return float(np.abs(off[near] + curvature * bend).max())
+
+
 def _spikes(walked: dict[float, float], ceiling: float) -> float:
     """The largest cost above or below both its neighbours along a walk, among the triples that
     reach down to ``ceiling`` (0 when none)."""
@@ -573,8 +669,8 @@ def _warnings(parameters: Sequence[Parameter], values: np.ndarray, std: np.ndarr
     widened = [f"{p.path} (×{w:.2g})" for p, w in zip(parameters, widen) if w > WIDENED]
     if widened:
         out.append(f"the cost steps where joints stick one plant step earlier or later, so these "
-                   f"intervals were widened to the values the data cannot reject: "
-                   f"{', '.join(widened)}")
+                   f"intervals were widened to the values the data cannot reject and the chaos "
+                   f"of the steps: {', '.join(widened)}")
     for i, p in enumerate(parameters):
         if not np.any(J[:, i]):
             out.append(f"{p.path} has no effect on the measured signals: it cannot be fitted "
