@@ -307,15 +307,17 @@ class _Problem:
     def simulate(self, x: np.ndarray) -> list[dict[tuple[str, str], np.ndarray]] | None:
         """Each experiment's simulated signals at its measured times, or None when the plant fails
         for these values."""
+        from maniplab.mjcf_gen.builder import arm_accuracy
         from maniplab.sim.plant import Plant
         from maniplab.sim.simulate import simulate
 
         self.evaluations += 1
         try:
             spec = self.fitted_spec(x)
+            known = arm_accuracy(self.spec)  # every candidate at the arm's step (cached)
             out = []
             for i, (e, keys) in enumerate(zip(self.experiments, self.keys)):
-                plant = Plant(spec)
+                plant = Plant(spec, accuracy=known)
                 _start(plant, e, self.initial_offsets(x, i))
                 run = simulate(plant, inputs={j: held(e.t, u) for j, u in e.inputs.items()},
                                duration=max(e.duration, 1e-9), progress=False)
