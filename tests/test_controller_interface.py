@@ -139,7 +139,7 @@ def sweep_case():
     move = ml.MinJerkMove(start, start.translated((-0.3, 0.15, 0.0)), 0.6, t0=0.1)
     grid = {"end_effector.mass": [1.3 * spec.end_effector.mass, spec.end_effector.mass]}
     kw = {"duration": 0.8, "initial": {"q": q0, "dP": "gravity"}, "sample_dt": 0.01}
-    alone = [ml.simulate(spec.with_overrides({"end_effector.mass": m}),
+    alone = [ml.simulate(spec, overrides={"end_effector.mass": m},  # at the arm's step
                          controller=CascadeController(spec, move, model=am), **kw)
              for m in grid["end_effector.mass"]]
     return spec, CascadeController(spec, move, model=am), grid, kw, alone

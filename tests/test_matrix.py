@@ -107,11 +107,6 @@ _HOLD = Expected("refused", "joint shoulder cannot hold the arm on this path",
                  "to hold the arm, beyond the 80 % a move may plan with")
 
 EXPECTED: dict[tuple[str, str], Expected] = {
-    **{(arm, "identify"): Expected(
-        "defect", "misses the truth",
-        "KNOWN DEFECT: the fit lands within 0.2 % of the truth, but its 95 % interval is "
-        "±0.00001 % wide and excludes it (overconfident under stick/slip; full matrix only)")
-       for arm in ("erector_pinned", "arms/erector7")},
     ("arms/electric2", "control"): _HOLD,
     ("arms/electric2", "control-pid"): _HOLD,
     ("arms/mixed/forestry_grapple", "control"): _STRAIGHT,
