@@ -591,7 +591,7 @@ def _check_accuracy(found: AccurateStep, given: float | None, mujoco_step: float
             f"simulation can afford: check that actuator's parameters{where} (a tiny oil volume "
             "or a huge valve?), or give dt explicitly to run less accurately", time=0.0,
             joint=found.joint or None, dt=found.dt, resolved=True)
-    if given is not None and mujoco_step > found.needs * 1.000001:
+    if given is not None and found.signal and mujoco_step > found.needs * 1.000001:
         warnings.warn(f"dt {mujoco_step:g} s is coarser than the {found.needs:.2g} s that keeps "
                       f"joint {found.joint}'s {found.signal} within {accuracy.TOLERANCE:g} of "
                       "its range", StepWarning, stacklevel=4)
