@@ -28,7 +28,14 @@ import maniplab as ml
 from maniplab.control.move import run_move
 from maniplab.mjcf_gen import accuracy, build_model
 from maniplab.mjcf_gen.accuracy import StepWarning
-from maniplab.mjcf_gen.timestep import OSCILLATION, RATE, STABLE, default_step, spring_modes
+from maniplab.mjcf_gen.timestep import (
+    OSCILLATION,
+    RATE,
+    STABLE,
+    StepLimit,
+    default_step,
+    spring_modes,
+)
 from maniplab.spec import model_of
 
 ARMS = Path(__file__).resolve().parents[1] / "tests" / "arms"
@@ -57,7 +64,6 @@ def old_step(spec: ml.ManipulatorSpec) -> float:
     fastest = spring_modes(spec, build_model(spec)).fastest
     if fastest > 0:
         best = min(best, OSCILLATION / fastest)
-    from maniplab.mjcf_gen.timestep import StepLimit
     return default_step(StepLimit(best))
 
 

@@ -70,10 +70,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
-    """Run the sub-command; bad input becomes one line on stderr and status 2."""
+    """Run the sub-command, maniplab's warnings shown as one line on stderr each."""
     import warnings
-
-    from maniplab.errors import ManiplabError
 
     def one_line(message, category, filename, lineno, file=None, line=None) -> None:
         if issubclass(category, UserWarning) and category.__module__.startswith("maniplab"):
@@ -81,8 +79,16 @@ def _run(args: argparse.Namespace) -> int:
         else:
             default(message, category, filename, lineno, file, line)
 
-    default = warnings.showwarning
-    warnings.showwarning = one_line  # maniplab's warnings as one line, like its errors
+    with warnings.catch_warnings():  # maniplab's warnings as one line, like its errors
+        default = warnings.showwarning
+        warnings.showwarning = one_line
+        return _call(args)
+
+
+def _call(args: argparse.Namespace) -> int:
+    """``args.func(args)``; bad input becomes one line on stderr and status 2."""
+    from maniplab.errors import ManiplabError
+
     try:
         return args.func(args)
     except ManiplabError as exc:
