@@ -285,6 +285,26 @@ def test_a_flood_of_edits_and_clicks_leaves_run_responsive(app: Gui) -> None:
     user.close()
 
 
+
+def test_an_edit_arriving_while_the_last_is_applied_is_kept(app: Gui) -> None:
+    """The flood test's lost update, made deterministic: the page's next edit reaches the server
+    while the last one is being applied; applying must not write the older value over it."""
+    field = next(f for f in app.configure.joint_fields if f.path == "body.mass")
+    arrived: list[str] = []
+
+    def next_edit_arrives() -> None:  # what viser's event loop does when the next edit lands
+        if not arrived:
+            arrived.append("777.0")
+            field.show("777.0")  # the value only: its callback is the coalesced one below
+
+    app._spec_listeners.insert(0, next_edit_arrives)
+    field.show("555.0")
+    app.configure._apply_joint(field)
+    assert app.spec.joints[0].body.mass == 555.0
+    assert field.input.value == "777.0", "the newer edit was overwritten by the one applied"
+    app.configure._apply_joint(field)  # its own callback, coalesced, runs next
+    assert app.spec.joints[0].body.mass == 777.0
+
 # --- text and names -------------------------------------------------------------------------------
 
 

@@ -127,6 +127,10 @@ class ConfigureTab:
         self.joint_fields: list[Field] = []
         self._masses: dict[str, float] = {}  # body masses switched off, kg
         self._select: str | None = None  # the joint to select after the next change
+        # the field whose edit is being applied: its text is left as the page holds it, since a
+        # newer edit may already be there, waiting for its callback (writing back the value
+        # just applied would overwrite it and lose the last edit)
+        self._typed: Field | None = None
         with gui.add_folder("Save and export", expand_by_default=False):
             self.file_name = gui.add_text("Spec name", _safe(app.spec.name),
                                           hint="saved as specs/NAME.yaml in the workspace")
@@ -148,7 +152,8 @@ class ConfigureTab:
         self.table.content = joint_table(spec)
         data = spec.to_dict()
         for field, (path, _) in zip(self.arm_fields, ARM_FIELDS):
-            field.show(text_of(lookup(data, path)))
+            if field is not self._typed:
+                field.show(text_of(lookup(data, path)))
         names = [j.name for j in spec.joints]
         wanted = self._select or self.joint.value
         self._select = None
@@ -209,14 +214,19 @@ class ConfigureTab:
         field.fail(None)
         if path == f"joints.{self.joint.value}.name":
             self._select = str(value)
-        self.app.set_spec(spec)
+        self._typed = field
+        try:
+            self.app.set_spec(spec)
+        finally:
+            self._typed = None
 
     def _sync_values(self) -> None:
         """Show the values that followed an edit (a COG follows its body's length)."""
         data = self.app.spec.to_dict()
         joint = data["joints"][self.app.spec.joint_index(self.joint.value)]
         for field in self.joint_fields:
-            field.show(text_of(lookup(joint, field.path)))
+            if field is not self._typed:
+                field.show(text_of(lookup(joint, field.path)))
 
     def _toggle_body(self) -> None:
         name = self.joint.value
