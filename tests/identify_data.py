@@ -16,16 +16,20 @@ RATE = 0.002
 
 
 def synthetic(spec: ml.ManipulatorSpec, truth: dict[str, float], inputs: dict[str, ml.signals.Signal],
-              q0: list[float], duration: float, seed: int = 0) -> Experiment:
-    """An experiment on ``spec`` with ``truth`` applied, from rest at q0, noise :data:`NOISE`."""
-    t = np.arange(0.0, duration + 1e-9, RATE)
+              q0: list[float], duration: float, seed: int = 0,
+              noise: dict[str, float] | None = None, rate: float = RATE) -> Experiment:
+    """An experiment on ``spec`` with ``truth`` applied, from rest at q0, sampled every ``rate``
+    s, with the measurement noise ``noise`` (signal -> σ; default :data:`NOISE`) on each joint
+    that has the signal."""
+    t = np.arange(0.0, duration + 1e-9, rate)
     held = {j: ml.signals.held(t, s.sample(t)) for j, s in inputs.items()}
     run = ml.simulate(spec.with_overrides(truth), inputs=held, duration=duration,
-                      initial={"q": q0, "dP": "gravity"}, sample_dt=RATE)
+                      initial={"q": q0, "dP": "gravity"}, sample_dt=rate)
     rng = np.random.default_rng(seed)
     measured = {}
     for k, joint in enumerate(spec.joint_names):
-        for signal, sigma in NOISE.items():
-            measured[(signal, joint)] = run[signal][:, k] + rng.normal(0.0, sigma, len(run.t))
+        for signal, sigma in (NOISE if noise is None else noise).items():
+            if not np.isnan(run[signal][:, k]).all():
+                measured[(signal, joint)] = run[signal][:, k] + rng.normal(0.0, sigma, len(run.t))
     commands = {j: run["ctrl"][:, k] for k, j in enumerate(spec.joint_names)}
     return Experiment(f"synthetic {spec.name}", run.t, commands, measured)

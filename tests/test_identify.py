@@ -93,6 +93,20 @@ def test_leakage_bulk_modulus_and_payload_are_recovered_on_the_erector() -> None
     assert_recovered(result, truth)
 
 
+
+def test_a_pinned_cylinders_valve_is_recovered_from_pressures_five_times_off() -> None:
+    """patu655's lift valve: its nominal flow and its B/A flow ratio, fitted from the lift's
+    position and chamber pressures (noise 0.1 mm, 0.2 bar), from a start five times off each
+    way."""
+    spec = ml.builtin_spec("patu655")
+    flow, ratio = "joints.lift.actuator.valve.nominal_flow", "joints.lift.actuator.valve.flow_ratio"
+    truth = {flow: 6.0e-4, ratio: 0.6}
+    lift = {"lift": S.step(0.4, 0.1) + S.step(-0.8, 0.6) + S.step(0.4, 1.1)}
+    data = synthetic(spec, truth, lift, [0.0, -0.3, 1.2], 1.5, rate=0.004,
+                     noise={"q": 1e-4, "pA": 2e4, "pB": 2e4})
+    start = spec.with_overrides({flow: 5.0 * truth[flow], ratio: truth[ratio] / 5.0})
+    assert_recovered(identify(start, [data], list(truth), progress=False), truth)
+
 def test_an_experiment_whose_simulation_is_chaotic_is_refused() -> None:
     """Moving the erector's boom drags its shoulder and wrist into stick/slip chatter whose phase
     a millionth of a pascal changes: one line names the joint, and no fit is made."""

@@ -175,6 +175,61 @@ def test_bad_plugin_overrides_name_joint_and_field(motor_arm, path, value, field
         assert word in error.problem, f"{word!r} not in {error.problem!r}"
 
 
+
+# --- sections inside an actuator (a pinned cylinder's valve and cylinder) -------------------------
+
+
+def _edited(spec: ml.ManipulatorSpec, joint: str, section: str, key: str, value) -> ml.ManipulatorSpec:
+    """``spec`` with one field of an actuator's section changed in its dict: the reference the
+    dotted path must agree with."""
+    data = spec.to_dict()
+    data["joints"][spec.joint_index(joint)]["actuator"][section][key] = value
+    return type(spec).from_dict(data, source=spec.source)
+
+
+@pytest.mark.parametrize("section, key, value", [("valve", "nominal_flow", 5.0e-4),
+                                                 ("valve", "flow_ratio", 0.6),
+                                                 ("cylinder", "bore", 0.11)])
+def test_a_field_of_a_section_inside_an_actuator_can_be_overridden(section, key, value):
+    spec = ml.builtin_spec("patu655")
+    changed = spec.with_overrides({f"joints.lift.actuator.{section}.{key}": value})
+    assert changed == _edited(spec, "lift", section, key, value)
+    assert changed != spec
+
+
+def test_an_overridden_valve_is_simulated():
+    """Half the valve's nominal flow, through the override, runs as the spec whose valve was
+    edited in its dict (the reference), and not as the original."""
+    spec = ml.builtin_spec("patu655")
+    path = "joints.lift.actuator.valve.nominal_flow"
+    flow = spec.joint("lift").actuator.valve.nominal_flow
+    kw = {"inputs": {"lift": 0.5}, "duration": 0.2, "initial": {"dP": "gravity"}}
+    run = ml.simulate(spec, overrides={path: 0.5 * flow}, **kw)
+    reference = ml.simulate(_edited(spec, "lift", "valve", "nominal_flow", 0.5 * flow), **kw)
+    assert run.meta["overrides"] == {path: 0.5 * flow}
+    np.testing.assert_array_equal(run["q"], reference["q"])
+    assert not np.array_equal(run["q"], ml.simulate(spec, **kw)["q"])
+
+
+@pytest.mark.parametrize(
+    "path, value, field, words",
+    [
+        ("joints.lift.actuator.valve.nominal_flo", 1e-3, "actuator.valve.nominal_flo",
+         ["unknown key 'nominal_flo'", "did you mean 'nominal_flow'", "flow_ratio"]),
+        ("joints.lift.actuator.valve.nominal_flow", -1e-3, "actuator.valve.nominal_flow",
+         ["> 0", "after override joints.lift.actuator.valve.nominal_flow="]),
+        ("joints.lift.actuator.valve.tau.x", 1.0, "actuator.valve.tau.x",
+         ["'tau' is a single value", "joints.lift.actuator.valve.tau"]),
+        ("joints.lift.actuator.leakage.x", 1.0, "actuator.leakage.x",
+         ["'leakage' is a single value"]),
+    ],
+)
+def test_bad_overrides_inside_an_actuator_name_joint_and_field(path, value, field, words):
+    error = override_error(ml.builtin_spec("patu655"), {path: value})
+    assert (error.joint, error.field) == ("lift", field)
+    for word in words:
+        assert word in error.problem, f"{word!r} not in {error.problem!r}"
+
 # --- bad overrides ------------------------------------------------------------------------------
 
 BAD_PATHS = [

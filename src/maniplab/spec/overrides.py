@@ -84,7 +84,7 @@ def _set(data: dict[str, Any], spec: ManipulatorSpec, path: Any, value: Any) -> 
             joint, field_start = spec.joints[index].name, i + 2
             node, schema, i = data["joints"][index], type(spec.joints[index]), i + 2
             continue
-        child = _child(schema, part)
+        child = _child(schema, part, node)
         if child is None:
             raise fail(f"'{part}' is a single value, not a section; expected to override it "
                        f"whole, e.g. {{'{'.'.join(parts[: i + 1])}': ...}}")
@@ -98,14 +98,17 @@ def _set(data: dict[str, Any], spec: ManipulatorSpec, path: Any, value: Any) -> 
     node[parts[-1]] = copy.deepcopy(value)
 
 
-def _child(schema: Any, part: str) -> Any:
-    """The schema of section ``part`` of ``schema`` (a dataclass or _ACTUATOR), or None."""
+def _child(schema: Any, part: str, node: dict[str, Any]) -> Any:
+    """The schema of section ``part`` of ``schema`` (a dataclass, or _ACTUATOR for the actuator
+    section ``node``: its type's ``Params``), or None when ``part`` is a single value."""
     if schema == _ACTUATOR:
-        return None
+        schema = _params_of_type(node.get("type"), node)
+        if schema is None:
+            return None
     if part == _ACTUATOR:
         return _ACTUATOR
-    node = unwrap(fields_of(schema)[part])
-    return node if isinstance(node, type) and dataclasses.is_dataclass(node) else None
+    child = unwrap(fields_of(schema)[part])
+    return child if isinstance(child, type) and dataclasses.is_dataclass(child) else None
 
 
 def _valid_keys(schema: Any, node: dict[str, Any]) -> list[str]:
