@@ -15,7 +15,9 @@ static const double kPade[7] = {1.0, 0.5, 5.0 / 44.0, 1.0 / 66.0, 1.0 / 792.0, 1
    degree to reach the unit roundoff itself; a step needs far less). */
 static const double kTheta = 1.0;
 
-static void multiply(int n, const double* A, const double* B, double* C) {
+#define ML_INLINE static inline __attribute__((always_inline))
+
+ML_INLINE void multiply(int n, const double* A, const double* B, double* C) {
   for (int i = 0; i < n; i++) {
     for (int j = 0; j < n; j++) {
       double sum = 0.0;
@@ -27,7 +29,7 @@ static void multiply(int n, const double* A, const double* B, double* C) {
 
 /* X = D^-1 N by Gaussian elimination with partial pivoting, for D n x n and N, X n x m
    (row-major; D is overwritten). */
-static void solve_columns(int n, int m, double* D, const double* N, double* X) {
+ML_INLINE void solve_columns(int n, int m, double* D, const double* N, double* X) {
   memcpy(X, N, sizeof(double) * n * m);
   for (int c = 0; c < n; c++) {
     int pivot = c;
@@ -110,7 +112,7 @@ int ml_expm(int n, const double* A, double* E) {
    right block of every power of N is known (N^2 = 0) and the lower left is zero, so only A's
    powers and the n x 2 upper right block are formed, about half the work of the whole matrix.
    Returns the upper right block of exp(M) in E12 (n x 2). */
-static void augmented_expm(int n, const double* A, const double* B, double norm, double* E12) {
+ML_INLINE void augmented_expm(int n, const double* A, const double* B, double norm, double* E12) {
   int squarings = 0;
   if (norm > kTheta) squarings = (int)ceil(log2(norm / kTheta));
   double scale = ldexp(1.0, -squarings), nu = scale; /* the scaled N's entry */
@@ -228,7 +230,11 @@ int ml_exponential_step(int n, double h, const double* J, const double* f0, cons
     norm = fmax(norm, sum);
   }
   norm = fmax(norm, fmax(before, last));
-  augmented_expm(n, A, B, norm, E12);
+  if (n == 3) { /* the chambers' (pA, pB, spool): a copy the compiler unrolls */
+    augmented_expm(3, A, B, norm, E12);
+  } else {
+    augmented_expm(n, A, B, norm, E12);
+  }
   for (int i = 0; i < n; i++) dy[i] = beta * E12[2 * i + 1];
   return 0;
 }
