@@ -29,6 +29,14 @@ void ml_chambers_flows(const ml_chambers* c, double pa, double pb, double x, dou
   ml_chamber_volumes(c, s, out + 2, out + 3);
 }
 
+/* The valve's flows (Q_A, Q_B) at `count` states x[k] = (pA, pB, spool), row-major (count, 3),
+   into out (count, 2), m^3/s. */
+void ml_chambers_flows_many(const ml_chambers* c, int count, const double* x, double* out) {
+  for (int k = 0; k < count; k++) {
+    ml_valve_edges(c, x[3 * k + 2], x[3 * k], x[3 * k + 1], out + 2 * k, out + 2 * k + 1);
+  }
+}
+
 /* J: d(rates)/d(pA, pB, x), row-major 3 x 3 (chambers.h). */
 void ml_chambers_jacobian(const ml_chambers* c, double pa, double pb, double x, double u,
                           double s, double* J) {

@@ -109,7 +109,9 @@ class CascadeController:
             :class:`~maniplab.control.point_to_point.MovePlan`'s ``joint_reference``): on a
             redundant arm the task's null space pulls the joints towards it (stiffness
             (null_damping/2)², damping null_damping), so they follow the path the planner
-            checked instead of drifting onto a limit. None: null-space damping only.
+            checked instead of drifting onto a limit. None: null-space damping only. A path
+            whose function has ``accepts_arrays = True`` (as ``joint_reference``) is evaluated
+            at all of a run's samples in one call (times (K,) -> each (K, n)).
         **settings: fields of :class:`~maniplab.spec.ControlSpec` to replace, e.g. ``rate=500.0``.
 
     Attributes:
@@ -313,10 +315,20 @@ class CascadeController:
         refs = np.empty((len(times), REF_SIZE))
         for k, t in enumerate(times):
             pack_reference(self.trajectory.sample(float(t)), refs[k])
-        postures = (None if self.joint_path is None else
-                    np.array([self._posture(float(t)) for t in times]).reshape(len(times), -1))
+        postures = self._postures(times)
         self._c.reserve(len(times))
         return NativeController(self._c, times, refs, postures)
+
+    def _postures(self, times: np.ndarray) -> np.ndarray | None:
+        """:meth:`_posture` at each of ``times`` (K,), (K, 2n); in one call when the joint path
+        takes arrays of times (a planned move's)."""
+        if self.joint_path is None:
+            return None
+        if getattr(self.joint_path, "accepts_arrays", False):
+            q, qd = self.joint_path(times)  # type: ignore[arg-type]
+            return np.concatenate([np.asarray(q, dtype=float), np.asarray(qd, dtype=float)],
+                                  axis=1)
+        return np.array([self._posture(float(t)) for t in times]).reshape(len(times), -1)
 
     def _posture(self, t: float) -> np.ndarray | None:
         """The planned joint path's (q, q̇) at t, (2n,), or None without one."""

@@ -57,19 +57,22 @@ class MovePlan:
     demand: Demand | None
     path: JointPath | None = None
 
-    def joint_reference(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+    def joint_reference(self, t: float | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The planned joint path at time t: (q, q̇), each (n,) (rad or m, and per s): the
         joints the planner checked along the move, interpolated; the start before the move and
-        the path's end after it."""
+        the path's end after it. At times t (K,): each (K, n)."""
         if self.path is None:
             raise ValueError("this plan has no joint path")
         move, path = self.move, self.path
-        tau = min(max((t - move.t0) / move.duration, 0.0), 1.0)
-        q = np.array([np.interp(tau, path.tau, column) for column in path.q.T])
-        moving = move.t0 < t < move.t0 + move.duration
-        qd = (np.array([np.interp(tau, path.tau, column) for column in path.dq.T]) / move.duration
-              if moving else np.zeros(len(q)))
+        times = np.asarray(t, dtype=float)
+        tau = np.clip((times - move.t0) / move.duration, 0.0, 1.0)
+        q = np.stack([np.interp(tau, path.tau, column) for column in path.q.T], axis=-1)
+        moving = (move.t0 < times) & (times < move.t0 + move.duration)
+        qd = np.stack([np.interp(tau, path.tau, column) for column in path.dq.T], axis=-1)
+        qd = np.where(moving[..., None], qd / move.duration, 0.0)
         return q, qd
+
+    joint_reference.accepts_arrays = True  # type: ignore[attr-defined]
 
     @property
     def stretched(self) -> bool:

@@ -88,7 +88,22 @@ class SteadyFlows:
         low = max(p.tank_pressure, (self.f + p.tank_pressure * self.ab) / self.aa)
         high = min(p.supply_pressure, (self.f + p.supply_pressure * self.ab) / self.aa)
         grid = np.linspace(low, high, GRID) if low < high else np.array([low])
-        return grid, np.array([self._balance_b(float(pa)) for pa in grid])
+        return grid, self._balances_b(grid)
+
+    def _balances_b(self, pa: np.ndarray) -> np.ndarray:
+        """:meth:`_balance_b` at each pressure of ``pa`` (K,), in two calls of the valve law."""
+        pb = (pa * self.aa - self.f) / self.ab
+        leak = self.p.leakage * (pa - pb)
+        need_a, need_b = self.aa * self.sdot + leak, -self.ab * self.sdot - leak
+        way = np.where(np.signbit(need_a), -1.0, 1.0)  # as math.copysign(1.0, need)
+        full = chambers.valve_flows(self.law, np.stack([pa, pb, way], axis=1))[:, 0]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            x = np.where(full != 0.0, way * need_a / np.where(full != 0.0, full, 1.0),
+                         np.copysign(np.inf, way))
+        finite = np.isfinite(x)
+        got = chambers.valve_flows(self.law, np.stack([pa, pb, np.where(finite, x, 0.0)],
+                                                      axis=1))[:, 1]
+        return np.where(finite, need_b - got, np.copysign(np.inf, -x))
 
     def _balance_b(self, pa: float) -> float:
         x = self.with_a(pa)

@@ -37,6 +37,7 @@ _C = Functions({
     "ml_chambers_force": (_D, [_LAW, _D, _D]),
     "ml_chambers_flows": (None, [_LAW, _D, _D, _D, _D, _P]),
     "ml_chambers_forces": (None, [_LAW, ctypes.c_int, _P, _P, _P]),
+    "ml_chambers_flows_many": (None, [_LAW, ctypes.c_int, _P, _P]),
 })
 """The C functions (``maniplab_native/chambers.c``)."""
 
@@ -94,4 +95,14 @@ def flows(law: ChambersLaw, x: np.ndarray, s: float) -> np.ndarray:
     out = np.empty(4)
     _C().ml_chambers_flows(ctypes.byref(law), float(x[0]), float(x[1]), float(x[2]), float(s),
                            out.ctypes.data)
+    return out
+
+
+def valve_flows(law: ChambersLaw, x: np.ndarray) -> np.ndarray:
+    """The valve's flows into the chambers (Q_A, Q_B) at K states x = (pA, pB, spool), (K, 3)
+    -> (K, 2), m³/s: :func:`flows`' first two at many states in one call."""
+    states = np.ascontiguousarray(x, dtype=float).reshape(-1, 3)
+    out = np.empty((len(states), 2))
+    _C().ml_chambers_flows_many(ctypes.byref(law), len(states), states.ctypes.data,
+                                out.ctypes.data)
     return out
