@@ -441,3 +441,19 @@ def test_a_shared_supply_that_does_not_fit_is_one_line(change: dict, words: str)
     lumped["supply"] = {"pressure": 8.0e6, "max_flow": 4e-4}
     with pytest.raises(ml.SpecError, match="no joint has a pinned cylinder"):
         ml.ManipulatorSpec.from_dict(lumped)
+
+
+def test_the_valve_flows_of_many_states_are_those_of_each() -> None:
+    """The batched valve law the steady solve's pressure grid uses gives, state by state, the
+    flows of the one-state call (both directions of the spool, pressures around tank and
+    supply)."""
+    actuator = model_of(ml.builtin_spec("patu655").joint("lift"))
+    p = actuator.params
+    rng = np.random.default_rng(11)
+    states = np.column_stack([rng.uniform(-0.1, 1.1, 200) * p.supply_pressure,
+                              rng.uniform(-0.1, 1.1, 200) * p.supply_pressure,
+                              rng.uniform(-1.0, 1.0, 200)])
+    states[:5, 2] = [0.0, -0.0, 1.0, -1.0, 1e-12]
+    many = chambers.valve_flows(actuator.law, states)
+    s = float(actuator.geometry.length(0.0))
+    np.testing.assert_array_equal(many, [chambers.flows(actuator.law, x, s)[:2] for x in states])
