@@ -22,7 +22,9 @@
    closing where the pressure reaches p_r. While the relief stays closed this is MuJoCo's dP
    itself, so RK4's fourth order is untouched. That needs the step's starting pressure and rate:
    they are recorded at every evaluation that is not one of RK4's later stages (half a step or a
-   whole step after the recorded start), so at each step's start. */
+   whole step after the recorded start), so at each step's start. The valve flow Q is MuJoCo's
+   too, except over a step whose pressure crosses a kink of the valve law (below), where it is
+   taken from the exact lag of the valve's flow over the step. */
 #include <math.h>
 #include <stdint.h>
 #include <stdlib.h>
@@ -39,8 +41,8 @@ typedef struct {
 } Cylinder;
 
 /* plugin_state of an instance: the step's start time, pressure and rate without the relief
-   (Pa/s), and whether they are set */
-enum { START_TIME, START_PRESSURE, START_RATE, HAVE_START, NSTATE };
+   (Pa/s), whether they are set, and the valve flow Q at the start */
+enum { START_TIME, START_PRESSURE, START_RATE, HAVE_START, START_FLOW, NSTATE };
 
 static const char* kAttributes[] = {
     "area", "bulk_modulus", "volume", "leakage", "valve_gain", "supply_pressure", "valve_tau",
@@ -156,6 +158,99 @@ static double relieved_since(const ml_cylinder* c, double p0, double r0, double 
   return relieved(c, p0, r0, 2.0 * (p1 - p0) / t - r0, p1, t);
 }
 
+/* --- the valve flow through the root's kinks -----------------------------------------------
+   Where the valve law's root vanishes (the load pressure reaches the supply's on the side the flow
+   comes from; for the paper's law also where dP changes sign) the steady flow Q* has a kink, with
+   an infinite slope at the root: a fixed-step scheme passes it at a lower order than its own (RK4
+   left patu655's slew 1.3e-3 of its range off at 1 ms). A step whose pressure crosses a kink
+   takes Q instead from the exact solution of tau dQ/dt = Q* - Q over the step,
+
+     Q(h) = e^(-h/tau) Q0 + (1/tau) int_0^h e^(-(h-u)/tau) Q*(dP(u)) du,
+
+   with dP(u) the quadratic through the start's pressure and rate and the end's pressure,
+   integrated piecewise between the kinks by 8-point Gauss-Legendre in theta, u = a + (b - a)
+   (1 - cos theta)/2, which makes a square root at either end of a piece smooth. A step that
+   crosses none keeps the integrator's Q. */
+static const double kPi = 3.14159265358979323846;
+static const double kGaussX[4] = {0.1834346424956498, 0.5255324099163290, 0.7966664774136267,
+                                  0.9602898564975363};
+static const double kGaussW[4] = {0.3626837833783620, 0.3137066458778873, 0.2223810344533745,
+                                  0.1012285362903763};
+
+/* The times in (0, h) where p0 + r u + k u^2 = level, appended to times[*count]. */
+static void crossings(double p0, double r, double k, double level, double h, double* times,
+                      int* count) {
+  double roots[2];
+  int n = 0;
+  double c0 = p0 - level;
+  if (k == 0.0) {
+    if (r != 0.0) roots[n++] = -c0 / r;
+  } else {
+    double disc = r * r - 4.0 * k * c0;
+    if (disc >= 0.0) {
+      double q = -0.5 * (r + copysign(sqrt(disc), r));
+      if (q != 0.0) {
+        roots[n++] = q / k;
+        roots[n++] = c0 / q;
+      } else {
+        roots[n++] = 0.0;
+      }
+    }
+  }
+  for (int i = 0; i < n; i++) {
+    if (roots[i] > 0.0 && roots[i] < h) times[(*count)++] = roots[i];
+  }
+}
+
+/* (1/tau) int_a^b e^(-(h-u)/tau) Q*(p0 + r u + k u^2) du at the current i_v. */
+static double lag_integral(const ml_cylinder* c, double current, double p0, double r, double k,
+                           double a, double b, double h) {
+  double sum = 0.0;
+  for (int i = 0; i < 4; i++) {
+    for (int side = -1; side <= 1; side += 2) {
+      double theta = 0.5 * kPi * (1.0 + side * kGaussX[i]);
+      double u = a + 0.5 * (b - a) * (1.0 - cos(theta));
+      double du = 0.25 * kPi * (b - a) * sin(theta); /* du/dx, x the Gauss variable */
+      double flow = ml_valve_flow_law(current, p0 + u * (r + k * u), c->valve_gain,
+                                      c->inv_supply, c->orifice);
+      sum += kGaussW[i] * du * exp(-(h - u) * c->inv_tau) * flow;
+    }
+  }
+  return c->inv_tau * sum;
+}
+
+/* Q at the step's end: the integrator's `integrated`, or, when the pressure crosses a kink of the
+   valve law within the step, the exact lag of the valve flow over it (above). */
+static double lagged_flow(const ml_cylinder* c, double current, double q0, double p0, double r0,
+                          double p1, double h, double integrated) {
+  double k = (p1 - p0 - r0 * h) / (h * h), cuts[8];
+  int count = 0;
+  double supply = 1.0 / c->inv_supply;
+  if (current == 0.0 || !isfinite(p0 + r0 + p1 + q0)) return integrated;
+  if (c->orifice) {
+    crossings(p0, r0, k, current > 0.0 ? supply : -supply, h, cuts, &count);
+  } else {
+    crossings(p0, r0, k, supply, h, cuts, &count);
+    crossings(p0, r0, k, -supply, h, cuts, &count);
+    crossings(p0, r0, k, 0.0, h, cuts, &count);
+  }
+  if (count == 0) return integrated;
+  for (int i = 1; i < count; i++) { /* sort the few cut times */
+    for (int j = i; j > 0 && cuts[j] < cuts[j - 1]; j--) {
+      double t = cuts[j];
+      cuts[j] = cuts[j - 1];
+      cuts[j - 1] = t;
+    }
+  }
+  double flow = exp(-h * c->inv_tau) * q0, from = 0.0;
+  for (int i = 0; i <= count; i++) {
+    double to = i < count ? cuts[i] : h;
+    flow += lag_integral(c, current, p0, r0, k, from, to, h);
+    from = to;
+  }
+  return flow;
+}
+
 static int required(const mjModel* m, int instance, const char* key, double* value, int positive) {
   return ml_config_required(m, instance, PLUGIN, key, value, positive);
 }
@@ -226,27 +321,24 @@ static double into_step(const mjModel* m, const mjData* d, const mjtNum* state) 
   return fabs(t - 0.5 * h) <= tol || fabs(t - h) <= tol ? t : 0.0;
 }
 
-/* The pressure at an evaluation with the relief: at a step's start, dP (and the start's time,
-   pressure and rate without the relief are recorded); at a later stage, MuJoCo's dP, which runs
-   on without the relief, taken through the relief's regime from the start (relieved_since). */
-static double stage_pressure(const mjModel* m, mjData* d, const Cylinder* c, mjtNum* state,
-                             double dP, double Q, double v) {
-  double t = into_step(m, d, state);
-  if (t > 0.0) return relieved_since(&c->law, state[START_PRESSURE], state[START_RATE], dP, t);
-  state[START_TIME] = d->time;
-  state[START_PRESSURE] = dP;
-  state[START_RATE] = inflow(c, dP, Q, v);
-  state[HAVE_START] = 1.0;
-  return dP;
-}
-
-/* dP as the force and the rates see it at this evaluation (stage_pressure with a relief). */
+/* dP as the force and the rates see it at this evaluation. At a step's start, dP, and the start
+   (time, pressure, rate without the relief, flow) is recorded; at a later stage with a relief,
+   MuJoCo's dP, which runs on without the relief, taken through the relief's regime from the start
+   (relieved_since). */
 static double pressure(const mjModel* m, mjData* d, int instance, const Cylinder* c) {
   int adr = m->actuator_actadr[c->actuator];
-  double dP = d->act[adr];
+  mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
+  double dP = d->act[adr], t = into_step(m, d, state);
+  if (t == 0.0) {
+    state[START_TIME] = d->time;
+    state[START_PRESSURE] = dP;
+    state[START_RATE] = inflow(c, dP, d->act[adr + 1], d->actuator_velocity[c->actuator]);
+    state[START_FLOW] = d->act[adr + 1];
+    state[HAVE_START] = 1.0;
+    return dP;
+  }
   if (c->law.relief <= 0.0) return dP;
-  return stage_pressure(m, d, c, d->plugin_state + m->plugin_stateadr[instance], dP,
-                        d->act[adr + 1], d->actuator_velocity[c->actuator]);
+  return relieved_since(&c->law, state[START_PRESSURE], state[START_RATE], dP, t);
 }
 
 static void act_dot(const mjModel* m, mjData* d, int instance) {
@@ -259,16 +351,22 @@ static void act_dot(const mjModel* m, mjData* d, int instance) {
 
 static void advance(const mjModel* m, mjData* d, int instance) {
   const Cylinder* c = (const Cylinder*)d->plugin_data[instance];
-  if (c->law.relief <= 0.0) return;
   mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
   double h = m->opt.timestep;
   int adr = m->actuator_actadr[c->actuator];
   double p1 = d->act[adr];
-  /* without a recorded start (the state was set at another time), p1 held over the step */
   double since = d->time - state[START_TIME]; /* MuJoCo has advanced the time by h */
   int known = state[HAVE_START] && fabs(since - h) <= 1e-9 * (h + fabs(d->time));
-  d->act[adr] = known ? relieved_since(&c->law, state[START_PRESSURE], state[START_RATE], p1, h)
-                      : relieved(&c->law, p1, 0.0, 0.0, p1, h);
+  if (c->law.relief > 0.0) {
+    /* without a recorded start (the state was set at another time), p1 held over the step */
+    d->act[adr] = known ? relieved_since(&c->law, state[START_PRESSURE], state[START_RATE], p1, h)
+                        : relieved(&c->law, p1, 0.0, 0.0, p1, h);
+  }
+  if (known) {
+    d->act[adr + 1] = lagged_flow(&c->law, ml_control(m, d, c->actuator), state[START_FLOW],
+                                  state[START_PRESSURE], state[START_RATE], d->act[adr], h,
+                                  d->act[adr + 1]);
+  }
   state[HAVE_START] = 0.0;
 }
 
