@@ -45,8 +45,9 @@ _C = Functions({
 def chambers_law(p: PinnedHydraulicActuator) -> ChambersLaw:
     """The C law's parameters of a pinned cylinder's spec."""
     c, v = p.cylinder, p.valve
+    dead_a, dead_b = p.chamber_dead_volumes  # hoses included
     return ChambersLaw(
-        area_a=c.cap_area, area_b=c.rod_area, dead_a=c.dead_volumes[0], dead_b=c.dead_volumes[1],
+        area_a=c.cap_area, area_b=c.rod_area, dead_a=dead_a, dead_b=dead_b,
         min_length=c.min_length, stroke=c.stroke, bulk_modulus=p.bulk_modulus,
         leakage=p.leakage, gain_a=v.gain_a, gain_b=v.gain_b, laminar=LAMINAR * v.edge_drop,
         supply=p.supply_pressure, tank=p.tank_pressure, relief=p.relief_pressure or 0.0,

@@ -8,6 +8,7 @@ from typing import Annotated, ClassVar, Literal
 
 from pydantic import BeforeValidator, ValidationInfo, field_validator
 
+from maniplab.actuators.hydraulic.hose import P_ATM, Hoses
 from maniplab.actuators.hydraulic.valve import relief_gain
 from maniplab.schema import NonNegative, Positive, Vec3, validated
 from maniplab.schema.fields import sequence
@@ -85,8 +86,12 @@ class Cylinder:
         rod: rod diameter, m (smaller than the bore).
         min_length: pin to pin, fully retracted, m.
         stroke: m.
-        dead_volumes: oil that is not swept, cap side and rod side, hoses included, m³.
+        dead_volumes: oil that is not swept, cap side and rod side, m³: the cylinder's own, and
+            the hoses' unless they are given in ``hoses``.
         double_rod: a rod on both sides (both areas the annulus).
+        hoses: the hoses to the two chambers (:class:`~.hose.Hoses`), each adding its equivalent
+            dead volume (:meth:`dead_volumes_with_hoses`); None: none (or counted in
+            ``dead_volumes``).
     """
 
     EXAMPLE: ClassVar[str] = ("pins: {parent: [...], child: [...]}, bore: 0.1, rod: 0.056, "
@@ -99,6 +104,7 @@ class Cylinder:
     stroke: Positive
     dead_volumes: Annotated[tuple[Positive, Positive], BeforeValidator(sequence)]
     double_rod: bool = False
+    hoses: Hoses | None = None
 
     @field_validator("rod")
     @classmethod
@@ -122,6 +128,15 @@ class Cylinder:
     def max_length(self) -> float:
         """Pin to pin fully extended, m."""
         return self.min_length + self.stroke
+
+    def dead_volumes_with_hoses(self, oil: float, pressure: float) -> tuple[float, float]:
+        """The chambers' dead volumes with each hose's equivalent volume V_h β_oil/β_e added
+        (:mod:`.hose`), cap side and rod side, m³, for oil of bulk modulus ``oil`` (Pa) and the
+        hoses' air taken at the absolute ``pressure`` (Pa)."""
+        if self.hoses is None:
+            return self.dead_volumes
+        a, b = self.hoses.equivalent_volumes(oil, pressure)
+        return self.dead_volumes[0] + a, self.dead_volumes[1] + b
 
 
 @validated
@@ -202,3 +217,12 @@ class PinnedHydraulicActuator:
     def holding_pressure(self) -> float:
         """The highest chamber pressure: the relief's setting, else the supply's, Pa."""
         return self.relief_pressure or self.supply_pressure
+
+    @property
+    def chamber_dead_volumes(self) -> tuple[float, float]:
+        """V_A0 and V_B0 of the chambers' equations, m³: the cylinder's ``dead_volumes`` plus
+        each hose's equivalent volume V_h E/β_e, E the oil's ``bulk_modulus`` and β_e the hose's
+        effective one with its air at the supply pressure (absolute: ``supply_pressure`` +
+        :data:`~.hose.P_ATM`); see :mod:`.hose`."""
+        return self.cylinder.dead_volumes_with_hoses(self.bulk_modulus,
+                                                     self.supply_pressure + P_ATM)

@@ -33,6 +33,7 @@ from maniplab.actuators.hydraulic import chambers
 from maniplab.actuators.hydraulic.chamber_steady import SteadyFlows
 from maniplab.actuators.hydraulic.cylinder import PRESSURE_LIMIT
 from maniplab.actuators.hydraulic.geometry import PinGeometry
+from maniplab.actuators.hydraulic.hose import P_ATM
 from maniplab.actuators.hydraulic.params import PinnedHydraulicActuator
 from maniplab.actuators.plugin_mjcf import EnginePlugin
 
@@ -228,7 +229,22 @@ class PinnedCylinder(ActuatorPlugin):
         return self.params.bulk_modulus * (c.cap_area**2 / va + c.rod_area**2 / vb) * r**2
 
     def _smallest_volume(self) -> float:
-        return min(self.params.cylinder.dead_volumes)
+        return min(self.params.chamber_dead_volumes)
+
+    def _hose_lines(self) -> list[str]:
+        """What the hoses add to the dead volumes (none without hoses), for :meth:`details`."""
+        p, hoses = self.params, self.params.cylinder.hoses
+        if hoses is None or (hoses.a is None and hoses.b is None):
+            return []
+        pressure = p.supply_pressure + P_ATM
+        parts = [f"{side} {h.length:g} m x ⌀{h.inner_diameter * 1e3:g} mm, {h.volume * 1e3:.4g} L "
+                 f"at β_e {h.bulk_modulus(p.bulk_modulus, pressure) / 1e9:.3g} GPa: "
+                 f"+{h.equivalent_volume(p.bulk_modulus, pressure) * 1e3:.4g} L"
+                 for side, h in (("A", hoses.a), ("B", hoses.b)) if h is not None]
+        va, vb = p.chamber_dead_volumes
+        line = (f"{' ' * len(self.joint.name)}  hoses {'; '.join(parts)} (oil at "
+                f"{p.bulk_modulus / 1e9:.3g} GPa): dead volumes {va * 1e3:.4g}, {vb * 1e3:.4g} L")
+        return [line]
 
     def rates(self, native: bool = False) -> dict[str, float]:
         """The spool's lag 1/τ and the pressure decay of the leakage across the piston,
@@ -237,7 +253,7 @@ class PinnedCylinder(ActuatorPlugin):
         if native:
             return {}
         p = self.params
-        leak = p.leakage * p.bulk_modulus * sum(1.0 / v for v in p.cylinder.dead_volumes)
+        leak = p.leakage * p.bulk_modulus * sum(1.0 / v for v in p.chamber_dead_volumes)
         return {"spool lag": 1.0 / p.valve.tau, "leakage": leak}
 
     def decays(self, native: bool = False) -> dict[str, float]:
@@ -306,7 +322,7 @@ class PinnedCylinder(ActuatorPlugin):
         sizes = (f"{' ' * len(j.name)}  A_A {c.cap_area * 1e4:.4g} cm², A_B "
                  f"{c.rod_area * 1e4:.4g} cm², valve edges K_A {law.gain_a:.4g}, K_B "
                  f"{law.gain_b:.4g} m³/(s·√Pa)")
-        return [where, sizes]
+        return [where, sizes, *self._hose_lines()]
 
     @classmethod
     def drive(cls, actuators: Sequence[ActuatorPlugin], joints: Sequence[int], *, dt: float,
