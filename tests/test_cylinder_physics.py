@@ -90,8 +90,9 @@ def volumes(s: np.ndarray | float) -> tuple:
 class Hydraulics:
     """The cylinder's and valve's parameters, derived here from a spec's actuator data: each
     edge passes nominal_flow at the nominal drop per edge (half the valve's, two edges in
-    series, unless per_edge), so K_A = nominal_flow / sqrt(drop per edge), K_B = flow_ratio K_A;
-    laminar below 5 % of the drop per edge."""
+    series, unless per_edge), so K_A = nominal_flow / sqrt(drop per edge), K_B = flow_ratio K_A,
+    the meter-out edges meter_out_ratio times their port's; laminar below 5 % of the drop per
+    edge; a compensated meter-in edge sees at most the compensator's margin."""
 
     gain_a: float
     gain_b: float
@@ -100,6 +101,8 @@ class Hydraulics:
     current_limit: float
     bulk_modulus: float
     leakage: float
+    meter_out: float = 1.0
+    margin: float = math.inf
 
     @classmethod
     def of(cls, actuator: dict) -> Hydraulics:
@@ -108,18 +111,25 @@ class Hydraulics:
         gain = v["nominal_flow"] / math.sqrt(drop)
         return cls(gain, gain * v.get("flow_ratio", 1.0), 0.05 * drop, v.get("tau", 0.01),
                    v.get("current_limit", 1.0), actuator.get("bulk_modulus", 1.4e9),
-                   actuator.get("leakage", 0.0))
+                   actuator.get("leakage", 0.0), v.get("meter_out_ratio", 1.0),
+                   v.get("compensator_margin") or math.inf)
 
     def root(self, dp: np.ndarray | float) -> np.ndarray | float:
         """The orifice's signed square root made linear below the transition, sqrt(Pa)."""
         return dp / (dp * dp + self.laminar**2) ** 0.25
 
+    def root_in(self, dp: np.ndarray | float) -> np.ndarray | float:
+        """A meter-in edge's root: no flow back into the supply, at most the margin's drop."""
+        return np.where(np.asarray(dp) > 0.0, self.root(np.minimum(dp, self.margin)), 0.0)
+
     def edges(self, x: np.ndarray | float, pa: np.ndarray | float,
               pb: np.ndarray | float) -> tuple:
         """The four edges' flows (P->A, B->T, P->B, A->T), m³/s, at spool x."""
         op, rev = np.maximum(x, 0.0), np.maximum(-x, 0.0)
-        return (self.gain_a * op * self.root(PS - pa), self.gain_b * op * self.root(pb - PT),
-                self.gain_b * rev * self.root(PS - pb), self.gain_a * rev * self.root(pa - PT))
+        return (self.gain_a * op * self.root_in(PS - pa),
+                self.meter_out * self.gain_b * op * self.root(pb - PT),
+                self.gain_b * rev * self.root_in(PS - pb),
+                self.meter_out * self.gain_a * rev * self.root(pa - PT))
 
     def boom_rhs(self, _t: float, z: np.ndarray, iv: float) -> list[float]:
         """(q, q̇, pA, pB, x)' of the boom on its cylinder at valve current iv (A)."""
@@ -185,6 +195,11 @@ LIFTS = {  # actuator overrides, valve current (A), rod-side pressure held at th
                             "per_edge": True, "flow_ratio": 0.6, "tau": 0.02,
                             "current_limit": 2.0},
                   "bulk_modulus": 1.0e9, "leakage": 2.0e-13}, 1.6, 1.0e6),
+    # a compensated section with its own meter-out edges: the lift at full opening holds the
+    # meter-in flow at K_A g(12 bar) while the supply exceeds the cap side by 12 bar
+    "compensated": ({"valve": {"nominal_flow": 9.0e-4, "nominal_pressure_drop": 35.0e5,
+                               "flow_ratio": 0.8, "meter_out_ratio": 0.7,
+                               "compensator_margin": 12.0e5, "tau": 0.01}}, 1.0, PT),
 }
 
 
@@ -229,6 +244,8 @@ def test_lifting_the_boom_matches_an_independent_integration(case: str, dt: floa
     for name, sim, exact in (("q", q, ref[0]), ("pA", pa, ref[2]), ("pB", pb, ref[3])):
         error = np.max(np.abs(sim - exact)) / np.ptp(exact)
         assert error < TOLERANCE, f"{name}: {error:.3g} of its range"
+    if case == "compensated":  # the compensator holds the meter-in drop throughout
+        assert np.all(PS - pa[opened] > LIFTS[case][0]["valve"]["compensator_margin"])
     if case == "brief":  # no leakage: held still until the valve opens
         assert np.max(np.abs(q[t <= T_STEP] - Q0)) < 1e-9
 

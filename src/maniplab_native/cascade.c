@@ -355,8 +355,10 @@ static double chamber_drive(ml_cascade* c, int j, double tau, double q, double q
   ml_valve_edges(law, sign, pa, pb, &qa, &qb);
   double floor = g->min_root * sqrt(law->supply - law->tank);
   double fa = sign * qa, fb = -sign * qb;
-  qa = sign * (fa > law->gain_a * floor ? fa : law->gain_a * floor);
-  qb = -sign * (fb > law->gain_b * floor ? fb : law->gain_b * floor);
+  double least_a = (sign > 0.0 ? law->gain_a : law->out_a) * floor; /* P->A or A->T */
+  double least_b = (sign > 0.0 ? law->out_b : law->gain_b) * floor;  /* B->T or P->B */
+  qa = sign * (fa > least_a ? fa : least_a);
+  qb = -sign * (fb > least_b ? fb : least_b);
   double gain = e * (qa / va - ratio * qb / vb) * sign;
   *p_d_out = p_d;
   return clip(need / gain * g->limit[j], -g->limit[j], g->limit[j]);

@@ -16,10 +16,14 @@
    the piston's travel (held within the stroke), the leakage across the piston Q_L = Le (pA - pB),
    and the valve's four metering edges, each an orifice Q = K x g(dp):
 
-     x > 0:  P -> A  K_A x g(Ps - pA)     B -> T  K_B x g(pB - Pt)
-     x < 0:  P -> B  K_B |x| g(Ps - pB)   A -> T  K_A |x| g(pA - Pt)
+     x > 0:  P -> A  K_A x g_in(Ps - pA)     B -> T  K_BT x g(pB - Pt)
+     x < 0:  P -> B  K_B |x| g_in(Ps - pB)   A -> T  K_AT |x| g(pA - Pt)
 
-   Q_A = K_A (x+ g(Ps - pA) - x- g(pA - Pt)),  Q_B = K_B (x- g(Ps - pB) - x+ g(pB - Pt)).
+   Q_A = K_A x+ g_in(Ps - pA) - K_AT x- g(pA - Pt),  Q_B = K_B x- g_in(Ps - pB) - K_BT x+ g(pB - Pt),
+   the meter-out gains K_AT, K_BT their own (a datasheet's meter-out coefficients). A meter-in
+   edge with a local pressure compensator (margin dp_c) sees at most dp_c: g_in(dp) = g(min(dp,
+   dp_c)), so its flow follows the opening, not the load, while the supply exceeds the chamber's
+   pressure by dp_c (the compensator's spool throttles the rest), and the orifice law below.
    g(dp) = dp / (dp^2 + p_l^2)^(1/4) is the orifice's square root sign(dp) sqrt(|dp|), made
    laminar (linear) below the transition pressure p_l so that its slope stays finite. The P
    edges have the load-check valve of a mobile valve section: no flow back into the supply line
@@ -52,6 +56,9 @@ typedef struct {
   double relief;              /* p_r, Pa; 0: no relief valve */
   double inv_tau;             /* 1/tau, 1/s */
   double inv_current;         /* 1/i_max, 1/A */
+  double out_a, out_b;        /* K_AT, K_BT: the meter-out edges' gains, per sqrt(Pa) */
+  double margin;              /* the local compensator's margin across a meter-in edge, Pa;
+                                 0: no compensator */
 } ml_chambers;
 
 /* The orifice's signed square root g(dp), sqrt(Pa). */
@@ -63,6 +70,20 @@ static inline double ml_orifice_root(double dp, double laminar) {
    line, so g(dp) for dp > 0 and 0 otherwise. */
 static inline double ml_supply_root(double dp, double laminar) {
   return dp > 0.0 ? ml_orifice_root(dp, laminar) : 0.0;
+}
+
+/* A meter-in edge's root at the drop dp = (supply) - (chamber): the load-check valve lets no oil
+   back (0 for dp <= 0); with a local pressure compensator the edge sees at most the
+   compensator's margin, so the flow follows the opening and not the load while the supply
+   exceeds the chamber's pressure by the margin, and the orifice law below it. */
+static inline double ml_meter_in_root(const ml_chambers* c, double dp) {
+  if (c->margin > 0.0 && dp > c->margin) dp = c->margin;
+  return ml_supply_root(dp, c->laminar);
+}
+
+/* Whether a meter-in edge at the drop dp is compensated (its flow independent of dp). */
+static inline int ml_meter_in_held(const ml_chambers* c, double dp) {
+  return c->margin > 0.0 && dp > c->margin;
 }
 
 /* A chamber pressure within the valves' bounds [Pt, p_r] (p_r only with a relief valve). */
@@ -85,18 +106,18 @@ static inline void ml_valve_edges(const ml_chambers* c, double x, double pa, dou
                                   double* qa, double* qb) {
   double open = x > 0.0 ? x : 0.0, reverse = x < 0.0 ? -x : 0.0;
   double l = c->laminar;
-  *qa = c->gain_a * (open * ml_supply_root(c->supply - pa, l) -
-                     reverse * ml_orifice_root(pa - c->tank, l));
-  *qb = c->gain_b * (reverse * ml_supply_root(c->supply - pb, l) -
-                     open * ml_orifice_root(pb - c->tank, l));
+  *qa = c->gain_a * open * ml_meter_in_root(c, c->supply - pa) -
+        c->out_a * reverse * ml_orifice_root(pa - c->tank, l);
+  *qb = c->gain_b * reverse * ml_meter_in_root(c, c->supply - pb) -
+        c->out_b * open * ml_orifice_root(pb - c->tank, l);
 }
 
 /* The flow the valve draws from the supply line at pressure ps: through P->A (x > 0) or P->B
    (x < 0), m^3/s. */
 static inline double ml_supply_draw(const ml_chambers* c, double x, double pa, double pb,
                                     double ps) {
-  if (x >= 0.0) return c->gain_a * x * ml_supply_root(ps - pa, c->laminar);
-  return -c->gain_b * x * ml_supply_root(ps - pb, c->laminar);
+  if (x >= 0.0) return c->gain_a * x * ml_meter_in_root(c, ps - pa);
+  return -c->gain_b * x * ml_meter_in_root(c, ps - pb);
 }
 
 /* (dpA/dt, dpB/dt, dx/dt) at current u (clipped), length s and its rate sdot. */
@@ -129,16 +150,18 @@ static inline void ml_chambers_jacobian_law(const ml_chambers* c, double pa, dou
   double dqa_dpa, dqa_dx, dqb_dpb, dqb_dx;
   if (forward) { /* P -> A, B -> T */
     double up = c->supply - pa, down = pb - c->tank;
-    dqa_dpa = up > 0.0 ? -c->gain_a * x * ml_orifice_slope(up, l) : 0.0;
-    dqa_dx = c->gain_a * ml_supply_root(up, l);
-    dqb_dpb = -c->gain_b * x * ml_orifice_slope(down, l);
-    dqb_dx = -c->gain_b * ml_orifice_root(down, l);
+    dqa_dpa = up > 0.0 && !ml_meter_in_held(c, up) ? -c->gain_a * x * ml_orifice_slope(up, l)
+                                                    : 0.0;
+    dqa_dx = c->gain_a * ml_meter_in_root(c, up);
+    dqb_dpb = -c->out_b * x * ml_orifice_slope(down, l);
+    dqb_dx = -c->out_b * ml_orifice_root(down, l);
   } else {       /* P -> B, A -> T */
     double up = c->supply - pb, down = pa - c->tank;
-    dqa_dpa = c->gain_a * x * ml_orifice_slope(down, l);
-    dqa_dx = c->gain_a * ml_orifice_root(down, l);
-    dqb_dpb = up > 0.0 ? c->gain_b * x * ml_orifice_slope(up, l) : 0.0;
-    dqb_dx = -c->gain_b * ml_supply_root(up, l);
+    dqa_dpa = c->out_a * x * ml_orifice_slope(down, l);
+    dqa_dx = c->out_a * ml_orifice_root(down, l);
+    dqb_dpb = up > 0.0 && !ml_meter_in_held(c, up) ? c->gain_b * x * ml_orifice_slope(up, l)
+                                                   : 0.0;
+    dqb_dx = -c->gain_b * ml_meter_in_root(c, up);
   }
   double ka = c->bulk_modulus / va, kb = c->bulk_modulus / vb, leak = c->leakage;
   J[0] = ka * (dqa_dpa - leak);

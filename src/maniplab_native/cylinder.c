@@ -48,10 +48,25 @@ enum { START_TIME, HAVE_START, START_Y, START_S = START_Y + 3, START_SDOT, START
 static const char* kAttributes[] = {
     "area_a", "area_b", "dead_a", "dead_b", "min_length", "stroke", "bulk_modulus", "leakage",
     "gain_a", "gain_b", "laminar", "supply_pressure", "tank_pressure", "relief_pressure",
-    "valve_tau", "current_limit", "pump_flow"};
+    "valve_tau", "current_limit", "pump_flow", "out_a", "out_b", "compensator_margin"};
 
 static int required(const mjModel* m, int instance, const char* key, double* value, int positive) {
   return ml_config_required(m, instance, PLUGIN, key, value, positive);
+}
+
+/* An optional positive config number into *value (left as it is when absent); -1 on a bad one. */
+static int optional_positive(const mjModel* m, int instance, const char* key, double* value) {
+  double read = *value;
+  int status = ml_config_number(m, instance, key, &read);
+  if (status < 0) return -1;
+  if (status == 0) {
+    if (!(read > 0.0)) {
+      mju_warning(PLUGIN ": %s %g must be positive", key, read);
+      return -1;
+    }
+    *value = read;
+  }
+  return 0;
 }
 
 static int read_law(const mjModel* m, int instance, ml_chambers* c) {
@@ -75,6 +90,16 @@ static int read_law(const mjModel* m, int instance, ml_chambers* c) {
   }
   c->inv_tau = 1.0 / tau;
   c->inv_current = 1.0 / limit;
+  /* optional (a file written before they existed): meter-out gains as the meter-in's, and no
+     compensator */
+  c->out_a = c->gain_a;
+  c->out_b = c->gain_b;
+  c->margin = 0.0;
+  if (optional_positive(m, instance, "out_a", &c->out_a) ||
+      optional_positive(m, instance, "out_b", &c->out_b) ||
+      optional_positive(m, instance, "compensator_margin", &c->margin)) {
+    return -1;
+  }
   c->relief = 0.0;
   int has_relief = ml_config_number(m, instance, "relief_pressure", &c->relief);
   if (has_relief < 0) return -1;

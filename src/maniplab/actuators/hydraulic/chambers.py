@@ -26,7 +26,7 @@ class ChambersLaw(ctypes.Structure):
     _fields_ = [(name, c_double) for name in (
         "area_a", "area_b", "dead_a", "dead_b", "min_length", "stroke", "bulk_modulus",
         "leakage", "gain_a", "gain_b", "laminar", "supply", "tank", "relief", "inv_tau",
-        "inv_current")]
+        "inv_current", "out_a", "out_b", "margin")]
 
 
 _D = c_double
@@ -51,7 +51,8 @@ def chambers_law(p: PinnedHydraulicActuator) -> ChambersLaw:
         min_length=c.min_length, stroke=c.stroke, bulk_modulus=p.bulk_modulus,
         leakage=p.leakage, gain_a=v.gain_a, gain_b=v.gain_b, laminar=LAMINAR * v.edge_drop,
         supply=p.supply_pressure, tank=p.tank_pressure, relief=p.relief_pressure or 0.0,
-        inv_tau=1.0 / v.tau, inv_current=1.0 / v.current_limit)
+        inv_tau=1.0 / v.tau, inv_current=1.0 / v.current_limit, out_a=v.out_a, out_b=v.out_b,
+        margin=v.compensator_margin or 0.0)
 
 
 def plugin_config(p: PinnedHydraulicActuator) -> dict[str, float]:
@@ -59,11 +60,13 @@ def plugin_config(p: PinnedHydraulicActuator) -> dict[str, float]:
     law = chambers_law(p)
     config = {name: getattr(law, name) for name in (
         "area_a", "area_b", "dead_a", "dead_b", "min_length", "stroke", "bulk_modulus",
-        "leakage", "gain_a", "gain_b", "laminar")}
+        "leakage", "gain_a", "gain_b", "laminar", "out_a", "out_b")}
     config |= {"supply_pressure": p.supply_pressure, "tank_pressure": p.tank_pressure,
                "valve_tau": p.valve.tau, "current_limit": p.valve.current_limit}
     if p.relief_pressure is not None:
         config["relief_pressure"] = p.relief_pressure
+    if p.valve.compensator_margin is not None:
+        config["compensator_margin"] = p.valve.compensator_margin
     return config
 
 

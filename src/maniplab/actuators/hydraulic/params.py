@@ -148,7 +148,14 @@ class Valve:
         nominal_pressure_drop: at which nominal_flow is rated, Pa: across the whole valve (two
             edges in series, as catalogues rate them) unless ``per_edge``.
         per_edge: the nominal drop is across one edge.
-        flow_ratio: the B edges' flow over the A edges' at the same opening and drop.
+        flow_ratio: the B port's flow over the A port's at the same opening and drop (a
+            datasheet's "62 L/min at A, 72 L/min at B": 72/62).
+        meter_out_ratio: the meter-out edges' (A→T, B→T) flow over the meter-in edges' of the
+            same port (P→A, P→B) at the same opening and drop.
+        compensator_margin: a local pressure compensator's margin, Pa: the drop it holds across
+            the meter-in edge, so the flow follows the opening and not the load while the supply
+            exceeds the chamber's pressure by it (below, the edge sees the whole drop, the
+            orifice law); None: no compensator.
         tau: the spool's time constant, s.
         current_limit: the current that opens it fully, A.
     """
@@ -159,6 +166,8 @@ class Valve:
     nominal_pressure_drop: Positive
     per_edge: bool = False
     flow_ratio: Positive = 1.0
+    meter_out_ratio: Positive = 1.0
+    compensator_margin: Positive | None = None
     tau: Positive = 0.01
     current_limit: Positive = 1.0
 
@@ -174,8 +183,18 @@ class Valve:
 
     @property
     def gain_b(self) -> float:
-        """K_B = flow_ratio K_A."""
+        """K_B = flow_ratio K_A: the P→B edge's."""
         return self.flow_ratio * self.gain_a
+
+    @property
+    def out_a(self) -> float:
+        """K_AT = meter_out_ratio K_A: the A→T edge's, m³/(s·√Pa)."""
+        return self.meter_out_ratio * self.gain_a
+
+    @property
+    def out_b(self) -> float:
+        """K_BT = meter_out_ratio K_B: the B→T edge's, m³/(s·√Pa)."""
+        return self.meter_out_ratio * self.gain_b
 
 
 @validated
@@ -209,6 +228,11 @@ class PinnedHydraulicActuator:
         if not self.supply_pressure > self.tank_pressure:
             raise ValueError(f"supply_pressure {self.supply_pressure:g} Pa is not above "
                              f"tank_pressure {self.tank_pressure:g} Pa")
+        margin = self.valve.compensator_margin
+        if margin is not None and not margin < self.supply_pressure - self.tank_pressure:
+            raise ValueError(f"valve.compensator_margin {margin:g} Pa is not below the supply's "
+                             f"drop to tank, {self.supply_pressure - self.tank_pressure:g} Pa: "
+                             "it would never hold the flow")
         if self.relief_pressure is not None and not self.relief_pressure > self.tank_pressure:
             raise ValueError(f"relief_pressure {self.relief_pressure:g} Pa is not above "
                              f"tank_pressure {self.tank_pressure:g} Pa")

@@ -196,13 +196,18 @@ class PinnedCylinder(ActuatorPlugin):
     # --- speed, stiffness and rates -------------------------------------------------------------
     def piston_speed(self) -> float:
         """The slower of the piston's no-load extension and retraction speeds at full opening,
-        m/s: each edge passes K sqrt(drop), and the chamber pressures balance (pA A_A = pB A_B)."""
+        m/s: each edge passes K sqrt(drop), and the chamber pressures balance (pA A_A = pB A_B);
+        a compensated meter-in edge passes at most K sqrt(margin)."""
         p, c, law = self.params, self.params.cylinder, self.law
         ps, pt, a, b = p.supply_pressure, p.tank_pressure, c.cap_area, c.rod_area
-        resist = a**3 / law.gain_a**2 + b**3 / law.gain_b**2
-        out = (a * ps - b * pt) / resist
-        back = (b * ps - a * pt) / resist
-        return math.sqrt(max(min(out, back), 0.0))
+        out = (a * ps - b * pt) / (a**3 / law.gain_a**2 + b**3 / law.out_b**2)
+        back = (b * ps - a * pt) / (b**3 / law.gain_b**2 + a**3 / law.out_a**2)
+        speeds = [math.sqrt(max(out, 0.0)), math.sqrt(max(back, 0.0))]
+        margin = p.valve.compensator_margin
+        if margin is not None:  # the compensator holds the meter-in flow
+            speeds = [min(speeds[0], law.gain_a * math.sqrt(margin) / a),
+                      min(speeds[1], law.gain_b * math.sqrt(margin) / b)]
+        return min(speeds)
 
     @property
     def mid_arm(self) -> float:
@@ -263,7 +268,7 @@ class PinnedCylinder(ActuatorPlugin):
         if native:
             return {}
         law = self.law
-        slope = max(law.gain_a, law.gain_b) / math.sqrt(law.laminar)
+        slope = max(law.gain_a, law.gain_b, law.out_a, law.out_b) / math.sqrt(law.laminar)
         return {"chamber filling": self.params.bulk_modulus / self._smallest_volume() * slope}
 
     # --- in MuJoCo --------------------------------------------------------------------------------
@@ -321,7 +326,12 @@ class PinnedCylinder(ActuatorPlugin):
                  f"{r.max():.4g}{arm_unit}")
         sizes = (f"{' ' * len(j.name)}  A_A {c.cap_area * 1e4:.4g} cm², A_B "
                  f"{c.rod_area * 1e4:.4g} cm², valve edges K_A {law.gain_a:.4g}, K_B "
-                 f"{law.gain_b:.4g} m³/(s·√Pa)")
+                 f"{law.gain_b:.4g}, K_AT {law.out_a:.4g}, K_BT {law.out_b:.4g} m³/(s·√Pa)")
+        margin = self.params.valve.compensator_margin
+        if margin is not None:
+            sizes += (f"; compensated at {margin / 1e5:.4g} bar: at most "
+                      f"{law.gain_a * math.sqrt(margin) * 6e4:.4g} L/min into A, "
+                      f"{law.gain_b * math.sqrt(margin) * 6e4:.4g} L/min into B")
         return [where, sizes, *self._hose_lines()]
 
     @classmethod

@@ -94,8 +94,10 @@ class ChamberDrive(ForceDrive):
         sign = 1.0 if need >= 0.0 else -1.0
         q = chambers.flows(law, np.array([pa, pb, sign]), law.min_length)
         floor = self.min_root * np.sqrt(law.supply - law.tank)
-        qa = sign * max(sign * q[0], law.gain_a * floor)
-        qb = -sign * max(-sign * q[1], law.gain_b * floor)
+        least_a = (law.gain_a if sign > 0 else law.out_a) * floor  # P->A or A->T
+        least_b = (law.out_b if sign > 0 else law.gain_b) * floor  # B->T or P->B
+        qa = sign * max(sign * q[0], least_a)
+        qb = -sign * max(-sign * q[1], least_b)
         ratio = law.area_b / law.area_a
         return float(law.bulk_modulus * (qa / va - ratio * qb / vb)) * sign
 
