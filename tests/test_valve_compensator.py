@@ -190,3 +190,52 @@ def test_the_exported_mjcf_carries_the_section_and_plain_mujoco_runs_it_as_the_p
         q.append(data.qpos.copy())
     assert np.ptp(run.q[:, 1]) > 1e-3  # the lift moves
     np.testing.assert_allclose(np.array(q), run.q, rtol=0, atol=1e-9)
+
+
+# --- a load-sensing pump ------------------------------------------------------------------------
+
+PUMP_MARGIN = 15.0e5
+"""The load-sensing pump's margin in these tests, Pa."""
+
+
+def _on_ls_pump(**supply: float) -> ml.ManipulatorSpec:
+    data = ml.builtin_spec("patu655").to_dict()
+    data["supply"] = {"pressure": 8.0e6, "max_flow": 1.0, "ls_margin": PUMP_MARGIN, **supply}
+    return ml.ManipulatorSpec.from_dict(data)
+
+
+def test_a_load_sensing_pump_holds_the_highest_load_plus_its_margin():
+    """The lift alone at full opening on an LS pump, no compensator: the pump's pressure follows
+    the cap side plus its margin, so the bare orifice passes K_A g(margin) with 0 and 250 kg
+    (cap side 3.1 and 6.1 MPa; 1e-3), where the constant 80 bar supply gave 87 and 69 L/min."""
+    spec = _on_ls_pump()
+    p = spec.joint("lift").actuator
+    drop = 0.5 * p.valve.nominal_pressure_drop
+    expected = p.valve.nominal_flow / math.sqrt(drop) * root(PUMP_MARGIN, 0.05 * drop)
+    for payload in (0.0, 250.0):
+        assert _lift_flow(spec, payload)[0] == pytest.approx(expected, rel=1e-3), payload
+
+
+def test_compensated_sections_on_a_load_sensing_pump_pass_their_own_flows():
+    """Lift and tilt (retracting) both compensated at 12 bar on a 15 bar LS pump: the pump
+    follows the higher load, and each section passes K g(12 bar) of its own port (1e-3)."""
+    spec = _on_ls_pump().with_overrides(
+        {f"joints.{j}.actuator.valve.compensator_margin": MARGIN for j in ("lift", "tilt")})
+    run = ml.simulate(spec, inputs={"lift": 1.0, "tilt": -1.0}, duration=0.8,
+                      initial={"q": [0.0, -0.3, 1.0], "dP": "gravity"}, sample_dt=1e-3)
+    for joint, side in (("lift", 0), ("tilt", 1)):
+        v = spec.joint(joint).actuator.valve
+        drop = 0.5 * v.nominal_pressure_drop
+        gain = v.nominal_flow / math.sqrt(drop) * (v.flow_ratio if side else 1.0)
+        flow = abs(_into_chambers(run, spec, joint)[side])
+        assert flow == pytest.approx(gain * root(MARGIN, 0.05 * drop), rel=1e-3), joint
+
+
+def test_a_load_sensing_margin_above_the_cut_off_is_one_line():
+    data = ml.builtin_spec("patu655").to_dict()
+    data["supply"] = {"pressure": 8.0e6, "max_flow": 1e-3, "ls_margin": 9.0e6}
+    with pytest.raises(SpecError) as caught:
+        ml.ManipulatorSpec.from_dict(data)
+    text = str(caught.value)
+    assert "ls_margin 9e+06 Pa is not below the pump's cut-off pressure 8e+06 Pa" in text
+    assert "\n" not in text

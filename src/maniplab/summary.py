@@ -22,7 +22,9 @@ def spec_table(spec: ManipulatorSpec) -> str:
     if spec.supply is not None:
         sharing = ", ".join(j.name for j in spec.joints
                             if getattr(j.actuator, "cylinder", None) is not None)
-        pump = (f"pump: {spec.supply.pressure / 1e6:g} MPa, "
+        kind = ("" if spec.supply.ls_margin is None else
+                f"load-sensing, margin {spec.supply.ls_margin / 1e5:.4g} bar, cut-off ")
+        pump = (f"pump: {kind}{spec.supply.pressure / 1e6:g} MPa, "
                 f"{spec.supply.max_flow * 6e4:.4g} L/min, shared by {sharing}")
         lines += ["", pump]
     lines += [

@@ -59,6 +59,9 @@ typedef struct {
   double out_a, out_b;        /* K_AT, K_BT: the meter-out edges' gains, per sqrt(Pa) */
   double margin;              /* the local compensator's margin across a meter-in edge, Pa;
                                  0: no compensator */
+  double ls_margin;           /* on a load-sensing pump: its margin, Pa; 0: supply at Ps */
+  double ls_others;           /* the highest load-sense pressure of the other sections on that
+                                 pump (the tank's when they are closed), Pa */
 } ml_chambers;
 
 /* The orifice's signed square root g(dp), sqrt(Pa). */
@@ -93,6 +96,25 @@ static inline double ml_chamber_bounded(const ml_chambers* c, double p) {
   return p;
 }
 
+/* The supply pressure this section's meter-in edge sees: Ps, or on a load-sensing pump the
+   highest load-sense pressure (the others', or this section's own: the chamber its open
+   meter-in edge feeds) plus the pump's margin, at most Ps (then the pump's cut-off, or the
+   pressure its flow limit leaves). */
+static inline double ml_supply_seen(const ml_chambers* c, double pa, double pb, double x) {
+  if (c->ls_margin <= 0.0) return c->supply;
+  double own = x > 0.0 ? pa : (x < 0.0 ? pb : c->tank);
+  double target = (own > c->ls_others ? own : c->ls_others) + c->ls_margin;
+  return target < c->supply ? target : c->supply;
+}
+
+/* d(ml_supply_seen)/d(the pressure of the chamber x's meter-in edge feeds): 1 where this
+   section's own load sets a load-sensing pump's pressure, else 0. */
+static inline double ml_supply_follows(const ml_chambers* c, double pa, double pb, double x) {
+  if (c->ls_margin <= 0.0 || x == 0.0) return 0.0;
+  double own = x > 0.0 ? pa : pb;
+  return own > c->ls_others && own + c->ls_margin < c->supply ? 1.0 : 0.0;
+}
+
 /* The chamber volumes (V_A, V_B) at length s, m^3. */
 static inline void ml_chamber_volumes(const ml_chambers* c, double s, double* va, double* vb) {
   double y = s - c->min_length;
@@ -106,9 +128,10 @@ static inline void ml_valve_edges(const ml_chambers* c, double x, double pa, dou
                                   double* qa, double* qb) {
   double open = x > 0.0 ? x : 0.0, reverse = x < 0.0 ? -x : 0.0;
   double l = c->laminar;
-  *qa = c->gain_a * open * ml_meter_in_root(c, c->supply - pa) -
+  double ps = ml_supply_seen(c, pa, pb, x);
+  *qa = c->gain_a * open * ml_meter_in_root(c, ps - pa) -
         c->out_a * reverse * ml_orifice_root(pa - c->tank, l);
-  *qb = c->gain_b * reverse * ml_meter_in_root(c, c->supply - pb) -
+  *qb = c->gain_b * reverse * ml_meter_in_root(c, ps - pb) -
         c->out_b * open * ml_orifice_root(pb - c->tank, l);
 }
 
@@ -148,19 +171,22 @@ static inline void ml_chambers_jacobian_law(const ml_chambers* c, double pa, dou
   double l = c->laminar;
   int forward = x > 0.0 || (x == 0.0 && u * c->inv_current >= 0.0);
   double dqa_dpa, dqa_dx, dqb_dpb, dqb_dx;
+  /* on a load-sensing pump that this section's load sets, the supply follows the chamber the
+     meter-in edge feeds: the drop, and the edge's flow, do not change with it */
+  double ps = ml_supply_seen(c, pa, pb, x), follows = 1.0 - ml_supply_follows(c, pa, pb, x);
   if (forward) { /* P -> A, B -> T */
-    double up = c->supply - pa, down = pb - c->tank;
-    dqa_dpa = up > 0.0 && !ml_meter_in_held(c, up) ? -c->gain_a * x * ml_orifice_slope(up, l)
-                                                    : 0.0;
+    double up = ps - pa, down = pb - c->tank;
+    dqa_dpa = up > 0.0 && !ml_meter_in_held(c, up)
+                  ? -c->gain_a * x * ml_orifice_slope(up, l) * follows : 0.0;
     dqa_dx = c->gain_a * ml_meter_in_root(c, up);
     dqb_dpb = -c->out_b * x * ml_orifice_slope(down, l);
     dqb_dx = -c->out_b * ml_orifice_root(down, l);
   } else {       /* P -> B, A -> T */
-    double up = c->supply - pb, down = pa - c->tank;
+    double up = ps - pb, down = pa - c->tank;
     dqa_dpa = c->out_a * x * ml_orifice_slope(down, l);
     dqa_dx = c->out_a * ml_orifice_root(down, l);
-    dqb_dpb = up > 0.0 && !ml_meter_in_held(c, up) ? c->gain_b * x * ml_orifice_slope(up, l)
-                                                   : 0.0;
+    dqb_dpb = up > 0.0 && !ml_meter_in_held(c, up)
+                  ? c->gain_b * x * ml_orifice_slope(up, l) * follows : 0.0;
     dqb_dx = -c->gain_b * ml_meter_in_root(c, up);
   }
   double ka = c->bulk_modulus / va, kb = c->bulk_modulus / vb, leak = c->leakage;

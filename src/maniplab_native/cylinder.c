@@ -7,7 +7,11 @@
 
    With a config pump_flow (the spec's shared `supply:`), the cylinders that have it share one
    pump: its pressure falls below the setting when their valves together would draw more than
-   pump_flow (chambers.h), so that cylinders moving together slow down.
+   pump_flow (chambers.h), so that cylinders moving together slow down. With pump_ls_margin too,
+   the pump is load-sensing: its pressure is the highest load-sense pressure plus the margin, at
+   most the setting (its cut-off), taken quasi-statically (a pump's swash plate answers in tens
+   of milliseconds; the pressure follows the sections' states within each step as the flow limit
+   does).
 
    The three states are stiff (a small chamber filling through a wide-open edge decays at up to
    1e6 1/s), so MuJoCo's integrator does not take them: each step they take one exponential
@@ -36,19 +40,22 @@ typedef struct {
   int output;           /* the actuator's force output (its length, velocity and force) */
   ml_chambers law;
   double pump_flow;     /* Q_max of the shared supply, m^3/s; 0: a supply of its own */
+  double ls_margin;     /* a load-sensing pump's margin, Pa; 0: a constant-pressure pump */
 } Cylinder;
 
 static int g_slot = -1;  /* this plugin's registered slot */
 
 /* plugin_state of an instance: the step's start (time, states, length, rate, supply pressure),
-   whether it is recorded, and the states predicted for the step's end (a shared pump's) */
+   whether it is recorded, the states predicted for the step's end (a shared pump's), and on a
+   load-sensing pump the other sections' highest load-sense pressure over the step */
 enum { START_TIME, HAVE_START, START_Y, START_S = START_Y + 3, START_SDOT, START_SUPPLY, PRED_Y,
-       NSTATE = PRED_Y + 3 };
+       START_OTHERS = PRED_Y + 3, NSTATE };
 
 static const char* kAttributes[] = {
     "area_a", "area_b", "dead_a", "dead_b", "min_length", "stroke", "bulk_modulus", "leakage",
     "gain_a", "gain_b", "laminar", "supply_pressure", "tank_pressure", "relief_pressure",
-    "valve_tau", "current_limit", "pump_flow", "out_a", "out_b", "compensator_margin"};
+    "valve_tau", "current_limit", "pump_flow", "out_a", "out_b", "compensator_margin",
+    "pump_ls_margin"};
 
 static int required(const mjModel* m, int instance, const char* key, double* value, int positive) {
   return ml_config_required(m, instance, PLUGIN, key, value, positive);
@@ -136,6 +143,7 @@ static int init(const mjModel* m, mjData* d, int instance) {
     mju_warning(PLUGIN ": pump_flow %g must be positive", c.pump_flow);
     return -1;
   }
+  if (optional_positive(m, instance, "pump_ls_margin", &c.ls_margin)) return -1;
   return ml_keep(d, instance, &c, sizeof(c));
 }
 
@@ -175,16 +183,49 @@ static double pump_draw(const mjModel* m, const mjData* d, double ps, int predic
   return total;
 }
 
-/* The shared supply's pressure: its setting, or lower where the valves would draw more than
-   Q_max there (the draw rises with ps: bisection down to the tank pressure). */
+/* The highest load-sense pressure of the cylinders on the shared pump but `skip` (-1: none): the
+   chamber an open section's meter-in edge feeds, the tank's for a closed one. */
+static double sensed_max(const mjModel* m, const mjData* d, int skip, double tank, int predicted) {
+  double highest = tank;
+  for (int i = 0; i < m->nplugin; i++) {
+    const Cylinder* c = (const Cylinder*)d->plugin_data[i];
+    if (i == skip || m->plugin[i] != g_slot || c == NULL || c->pump_flow <= 0.0) continue;
+    const double* x = drawing_states(m, d, i, c, predicted);
+    double sensed = x[2] > 0.0 ? x[0] : (x[2] < 0.0 ? x[1] : tank);
+    highest = sensed > highest ? sensed : highest;
+  }
+  return highest;
+}
+
+/* The shared supply's pressure cap for the step: its setting, or lower where the valves would
+   draw more than Q_max (the draw rises with ps: bisection down to the tank pressure). A
+   load-sensing pump offers the highest load-sense pressure plus its margin (at most its setting,
+   the cut-off); while its flow suffices the cap is the setting and each section's law follows
+   the load-sense pressure itself (chambers.h, ml_supply_seen). */
 static double pump_pressure(const mjModel* m, const mjData* d, const Cylinder* c, int predicted) {
   double high = c->law.supply, low = c->law.tank;
-  if (pump_draw(m, d, high, predicted) <= c->pump_flow) return high;
+  if (c->ls_margin > 0.0) {
+    double sensed = sensed_max(m, d, -1, c->law.tank, predicted) + c->ls_margin;
+    high = sensed < high ? sensed : high;
+  }
+  if (pump_draw(m, d, high, predicted) <= c->pump_flow) return c->law.supply;
   for (int k = 0; k < 100 && high - low > 1e-12 * c->law.supply; k++) {
     double mid = 0.5 * (low + high);
     if (pump_draw(m, d, mid, predicted) > c->pump_flow) high = mid; else low = mid;
   }
   return 0.5 * (low + high);
+}
+
+/* The law over the recorded step: the supply pressure (cap) and, on a load-sensing pump, its
+   margin and the other sections' load-sense pressure. */
+static ml_chambers step_law(const Cylinder* c, const mjtNum* state) {
+  ml_chambers law = c->law;
+  law.supply = state[START_SUPPLY];
+  if (c->pump_flow > 0.0 && c->ls_margin > 0.0) {
+    law.ls_margin = c->ls_margin;
+    law.ls_others = state[START_OTHERS];
+  }
+  return law;
 }
 
 static void act_dot(const mjModel* m, mjData* d, int instance) {
@@ -202,8 +243,9 @@ static void act_dot(const mjModel* m, mjData* d, int instance) {
     state[START_S] = s;
     state[START_SDOT] = sdot;
     state[START_SUPPLY] = law.supply;
+    state[START_OTHERS] = sensed_max(m, d, instance, c->law.tank, 0);
   }
-  law.supply = state[START_SUPPLY];
+  law = step_law(c, state);
   ml_chambers_rates_law(&law, y[0], y[1], y[2], ml_control(m, d, c->actuator), s, sdot,
                         d->act_dot + adr);
 }
@@ -230,8 +272,8 @@ static void pump_over_step(const mjModel* m, mjData* d) {
     const Cylinder* c = (const Cylinder*)d->plugin_data[i];
     if (m->plugin[i] != g_slot || c == NULL || c->pump_flow <= 0.0) continue;
     mjtNum* state = d->plugin_state + m->plugin_stateadr[i];
-    ml_chambers law = c->law;
-    law.supply = start = state[START_SUPPLY];
+    ml_chambers law = step_law(c, state);
+    start = state[START_SUPPLY];
     double s0 = state[START_S], sdot0 = state[START_SDOT], sdot1 = length_rate(m, d, c);
     ml_chambers_step(&law, state + START_Y, ml_control(m, d, c->actuator), s0, sdot0,
                      s0 + 0.5 * h * (sdot0 + sdot1), sdot1, h, 1, state + PRED_Y);
@@ -242,7 +284,12 @@ static void pump_over_step(const mjModel* m, mjData* d) {
   for (int i = 0; i < m->nplugin; i++) {
     const Cylinder* c = (const Cylinder*)d->plugin_data[i];
     if (m->plugin[i] != g_slot || c == NULL || c->pump_flow <= 0.0) continue;
-    d->plugin_state[m->plugin_stateadr[i] + START_SUPPLY] = mean;
+    mjtNum* state = d->plugin_state + m->plugin_stateadr[i];
+    state[START_SUPPLY] = mean;
+    if (c->ls_margin > 0.0) { /* the others' load-sense pressure: the mean of start and end */
+      double end = sensed_max(m, d, i, c->law.tank, 1);
+      state[START_OTHERS] = 0.5 * (state[START_OTHERS] + end);
+    }
   }
 }
 
@@ -254,8 +301,7 @@ static void advance(const mjModel* m, mjData* d, int instance) {
   double since = d->time - state[START_TIME];  /* MuJoCo has advanced the time by h */
   if (state[HAVE_START] && fabs(since - h) <= 1e-9 * (h + fabs(d->time))) {
     if (c->pump_flow > 0.0 && first_on_pump(m, d, instance)) pump_over_step(m, d);
-    ml_chambers law = c->law;
-    law.supply = state[START_SUPPLY];
+    ml_chambers law = step_law(c, state);
     double s0 = state[START_S], sdot0 = state[START_SDOT], sdot1 = length_rate(m, d, c);
     ml_chambers_step(&law, state + START_Y, ml_control(m, d, c->actuator), s0, sdot0,
                      s0 + 0.5 * h * (sdot0 + sdot1), sdot1, h, ML_CHAMBER_SUBSTEPS, x);
@@ -274,8 +320,7 @@ static void compute(const mjModel* m, mjData* d, int instance, int capability_bi
   if (state[HAVE_START] && since > 0.0 && since <= m->opt.timestep * (1.0 + 1e-9)) {
     /* a stage within the step: the pressures from the step's start to this stage's time, with
        the cylinder moving as this stage has it move */
-    ml_chambers law = c->law;
-    law.supply = state[START_SUPPLY];
+    ml_chambers law = step_law(c, state);
     double s = d->actuator_length[c->output], sdot = d->actuator_velocity[c->output];
     ml_chambers_step(&law, state + START_Y, ml_control(m, d, c->actuator), state[START_S],
                      state[START_SDOT], s, sdot, since, 1, y);

@@ -4,7 +4,10 @@ For parameter values θ, each experiment is simulated from its measured initial 
 and the pressures when measured; otherwise at rest with the pressures that hold the arm) under
 its measured commands, held between samples; the residuals are simulated minus measured at the
 measured times, each signal divided by its scale. scipy's trust-region reflective least squares
-(bounds, any loss) then moves θ, each parameter divided by its start. The Jacobian is taken by
+(bounds, any loss) then moves θ in search variables x: a positive parameter (start > 0, lower
+bound >= 0: flows, friction, leakage, masses) as x = log(value/start), so that a start ten times
+too large or too small is equally near and the value stays positive (above
+:data:`~.parameters.FLOOR` of its start); any other as x = value/start. The Jacobian is taken by
 finite differences, one simulation per parameter, run in parallel threads (the plant's loop runs
 in C without the interpreter lock).
 
@@ -45,8 +48,11 @@ value, which missed the truth). So the residuals are simulated at 48 values over
 standard deviations, each sample is regressed on the parameter (a parabola), and the scatter about
 the parabolas along their slope g, of variance τ², is taken as a second noise: the data hold one
 draw of it and the fit another, so the parameter's variance grows by 2τ²/|g|² (and the profile's
-reach, whose costs are draws of the chaos, does not widen it). The confidence intervals are ±1.96
-standard deviations, the correlation from the covariance.
+reach, whose costs are draws of the chaos, does not widen it). All of this is in x. The
+confidence intervals are x ± 1.96 of its standard deviation σ_x, mapped to values: start (x ± 1.96
+σ_x) on the linear scale, value exp(±1.96 σ_x) on the log scale; the standard deviation reported
+in the value's unit is start σ_x, or value σ_x (the first order of the exponential); the
+correlation is the covariance's in x.
 """
 
 from __future__ import annotations
@@ -64,7 +70,7 @@ from scipy.optimize import least_squares
 from maniplab.builtin import resolve_spec
 from maniplab.errors import ManiplabError
 from maniplab.identification.data import Experiment, load_experiments
-from maniplab.identification.parameters import Parameter, parse_parameters
+from maniplab.identification.parameters import FLOOR, Parameter, parse_parameters
 from maniplab.progress import Progress
 from maniplab.sim.signals import held
 from maniplab.spec import ManipulatorSpec
@@ -80,12 +86,14 @@ FAILED = 1e3
 """The residual (in scales) of a simulation that fails for a parameter set: the fit backs off."""
 
 STEP = 1e-2
-"""Relative finite-difference step of the Jacobian (of each parameter divided by its start): large
-enough to step over the roughness stick/slip gives the residuals."""
+"""Relative finite-difference step of the Jacobian (1 % of each parameter's value: of x on the
+linear scale, x itself on the log scale): large enough to step over the roughness stick/slip gives
+the residuals."""
 
 SCAN_SPAN, SCAN_STEP, SCAN_ROUNDS = 0.4, 0.02, 3
-"""The grid of :meth:`_Problem.scan`: ±40 % of each parameter's start in 2 % steps, at most three
-rounds over the parameters."""
+"""The grid of :meth:`_Problem.scan`: ±0.4 of x in steps of 0.02, ±40 % of each parameter's start
+in 2 % steps (on the log scale: the value times e^±0.4, 0.67 to 1.49, in steps of 2 %), at most
+three rounds over the parameters."""
 
 PROFILE_BATCHES = 8
 """A profile walks at most this many batches of 8 steps each way (half a standard deviation in the
@@ -147,8 +155,14 @@ class Identification:
 
     @property
     def interval(self) -> np.ndarray:
-        """95 % confidence intervals, (p, 2): value ± 1.96 std."""
-        return np.column_stack([self.values - 1.96 * self.std, self.values + 1.96 * self.std])
+        """95 % confidence intervals, (p, 2): value ± 1.96 std, or for a parameter searched on
+        the log scale value exp(±1.96 std/value) (1.96 standard deviations of log(value))."""
+        low, high = self.values - 1.96 * self.std, self.values + 1.96 * self.std
+        for i, p in enumerate(self.parameters):
+            if p.log_scale and self.values[i] > 0.0:
+                spread = math.exp(1.96 * float(self.std[i] / self.values[i]))
+                low[i], high[i] = self.values[i] / spread, self.values[i] * spread
+        return np.column_stack([low, high])
 
     def table(self) -> str:
         """The fitted values as a Markdown table."""
@@ -244,11 +258,14 @@ def _solve(problem: _Problem, x0: np.ndarray, loss: Loss, budget: int, pool: Thr
 
 
 class _Problem:
-    """The residual function of a fit: parameters (divided by their starts) -> weighted residuals."""
+    """The residual function of a fit: search variables x (each parameter's value over its start,
+    or its logarithm: module docstring; then the initial-state offsets) -> weighted residuals."""
 
     def __init__(self, spec: ManipulatorSpec, parameters: tuple[Parameter, ...],
                  experiments: tuple[Experiment, ...]) -> None:
         self.spec, self.parameters, self.experiments = spec, parameters, experiments
+        self.log = np.array([p.log_scale for p in parameters], dtype=bool)
+        self.starts = np.array([p.start for p in parameters], dtype=float)
         self.keys = [sorted(e.measured, key=_order) for e in experiments]
         self.scales = [{k: UNIT_SCALES[k[0]] for k in keys} for keys in self.keys]
         self.evaluations = 0
@@ -288,11 +305,27 @@ class _Problem:
                         "stays put")
 
     def x0(self) -> np.ndarray:
-        """The start: every parameter at its spec value, no initial-state offset."""
-        return np.concatenate([np.ones(len(self.parameters)), np.zeros(len(self.offsets))])
+        """The start: every parameter at its spec value (x = 1, or 0 on the log scale), no
+        initial-state offset."""
+        return np.concatenate([np.where(self.log, 0.0, 1.0), np.zeros(len(self.offsets))])
 
     def values(self, x: np.ndarray) -> np.ndarray:
-        return x[:len(self.parameters)] * np.array([p.start for p in self.parameters])
+        """The parameters' values at x: start x, or start exp(x) on the log scale."""
+        z = np.asarray(x[:len(self.parameters)], dtype=float)
+        grown = np.exp(np.minimum(np.where(self.log, z, 0.0), 700.0))  # 700: a finite overflow
+        return np.where(self.log, grown, z) * self.starts
+
+    def deviations(self, x: np.ndarray, sigma: np.ndarray) -> np.ndarray:
+        """Standard deviations ``sigma`` of x as the values' (to first order): start σ, or
+        value σ on the log scale."""
+        return np.where(self.log, np.abs(self.values(x)), np.abs(self.starts)) * sigma
+
+    def magnitudes(self, x: np.ndarray) -> np.ndarray:
+        """|x|, and 1 on the log scale, where a step of h is already h of the value: the size
+        relative steps are taken of."""
+        size = np.abs(np.asarray(x, dtype=float))
+        size[:len(self.parameters)][self.log] = 1.0
+        return size
 
     def initial_offsets(self, x: np.ndarray, i: int) -> dict[tuple[str, str], float]:
         """Experiment i's offsets to its measured first values, in their units."""
@@ -373,7 +406,7 @@ class _Problem:
     def jacobian(self, x: np.ndarray, pool: Threads) -> np.ndarray:
         """Forward differences, one simulation per parameter in parallel (backward at a bound)."""
         base = self.residual_at(x)
-        steps = STEP * np.maximum(np.abs(x), 1e-2)
+        steps = STEP * np.maximum(self.magnitudes(x), 1e-2)
         steps[len(self.parameters):] = 0.1  # an offset of a tenth of its unit scale
         _, upper = self.bounds()
         steps = np.where(x + steps > upper, -steps, steps)
@@ -416,8 +449,7 @@ class _Problem:
         local = np.diag(cov_x).copy()
         cov_x = cov_x * np.outer(widen, widen) + np.diag(chaos)
         widen = np.sqrt(np.diag(cov_x) / np.maximum(local, 1e-300))
-        starts = np.array([p.start for p in self.parameters])
-        std = np.sqrt(np.clip(np.diag(cov_x), 0.0, None)) * np.abs(starts)
+        std = self.deviations(x, np.sqrt(np.clip(np.diag(cov_x), 0.0, None))[:p])
         scale = np.sqrt(np.clip(np.diag(cov_x), 1e-300, None))
         correlation = np.clip(cov_x / np.outer(scale, scale), -1.0, 1.0)
         J = J[:, :p]
@@ -545,7 +577,7 @@ class _Problem:
         lower, upper = self.bounds()
         room = np.minimum(x - lower, upper - x)
         step = np.clip(3.0 * guess * math.sqrt(rise_target / RISE),
-                       1e-6 * np.maximum(np.abs(x), 1e-3), 0.9 * room)
+                       1e-6 * np.maximum(self.magnitudes(x), 1e-3), 0.9 * room)
 
         def costs(points: list[np.ndarray]) -> np.ndarray:
             return np.array([float(v @ v) for v in self.residuals(points, pool)])
@@ -573,10 +605,13 @@ class _Problem:
         return np.linalg.pinv(symmetric)
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        """The bounds of x: the parameters divided by their starts, then the free offsets."""
-        lower = np.array([p.lower / p.start if p.start > 0 else p.upper / p.start
+        """The bounds of x: the parameters' over their starts (their logarithms on the log scale,
+        the lower one at least :data:`~.parameters.FLOOR`), then the free offsets."""
+        lower = np.array([math.log(max(p.lower / p.start, FLOOR)) if p.log_scale
+                          else p.lower / p.start if p.start > 0 else p.upper / p.start
                           for p in self.parameters])
-        upper = np.array([p.upper / p.start if p.start > 0 else p.lower / p.start
+        upper = np.array([math.log(p.upper / p.start) if p.log_scale
+                          else p.upper / p.start if p.start > 0 else p.lower / p.start
                           for p in self.parameters])
         free = np.full(len(self.offsets), np.inf)
         return np.concatenate([lower, -free]), np.concatenate([upper, free])

@@ -1,9 +1,11 @@
 """The parameters a fit adjusts: dotted spec paths (as ``--set``), with bounds.
 
 ``joints.q2.friction.coulomb`` fits from the spec's value within [0, ∞); ``end_effector.mass[0:8000]``
-within the bounds given. Physical quantities stay positive: the default lower bound is 0 (1e-9 of
-the start for a quantity the spec requires strictly positive, such as a bulk modulus). The fit
-works on each value divided by its start, so parameters of any unit are searched alike.
+within the bounds given. Physical quantities stay positive: the default lower bound is 0. The fit
+works on each value divided by its start, so parameters of any unit are searched alike; a positive
+one (a start above 0 and a lower bound of at least 0: a flow, a friction, a leakage, a mass) on
+the logarithm of that ratio (:attr:`Parameter.log_scale`), so that a start ten times too large
+is as near as one ten times too small, and the value stays above :data:`FLOOR` of its start.
 """
 
 from __future__ import annotations
@@ -16,6 +18,10 @@ from collections.abc import Iterable
 from maniplab.errors import SpecError
 from maniplab.sim.params import flatten_spec
 from maniplab.spec import ManipulatorSpec
+
+FLOOR = 1e-9
+"""The smallest value a positive parameter is searched down to, over its start: its lower bound 0
+is -∞ on the log scale."""
 
 _BOUNDS = re.compile(r"^(?P<path>[^\[\]]+?)\s*(\[(?P<lo>[^:\]]*):(?P<hi>[^\]]*)\])?$")
 
@@ -34,6 +40,12 @@ class Parameter:
     start: float
     lower: float
     upper: float
+
+    @property
+    def log_scale(self) -> bool:
+        """Searched on the log scale, log(value/start): a positive quantity (start > 0, lower
+        bound >= 0). Otherwise on the linear scale, value/start."""
+        return self.start > 0.0 and self.lower >= 0.0
 
 
 def parse_parameters(texts: Iterable[str], spec: ManipulatorSpec) -> list[Parameter]:

@@ -138,7 +138,7 @@ def _arm(spec: ManipulatorSpec) -> mujoco.MjSpec:
     for joint, mount in zip(spec.joints, mounts):
         _add_actuator(s, joint, mount)
     if spec.supply is not None:
-        _share_supply(s, spec.supply.max_flow)
+        _share_supply(s, spec.supply.max_flow, spec.supply.ls_margin)
     for joint in spec.joints:
         if joint.friction.model is FrictionModel.lugre:
             _add_bristles(s, joint)
@@ -259,13 +259,16 @@ def _add_actuator(s: mujoco.MjSpec, joint: Joint, mount: Mount) -> None:
         set_plugin(s, act, plugin)
 
 
-def _share_supply(s: mujoco.MjSpec, max_flow: float) -> None:
+def _share_supply(s: mujoco.MjSpec, max_flow: float, ls_margin: float | None) -> None:
     """Every pinned cylinder draws from one pump of flow ``max_flow`` (m³/s): its plugin instance
     gets ``pump_flow`` (``maniplab_native/cylinder.c`` lowers their shared supply pressure when
-    their valves would draw more)."""
+    their valves would draw more), and a load-sensing pump's margin ``pump_ls_margin`` (Pa)."""
+    extra = {"pump_flow": repr(float(max_flow))}
+    if ls_margin is not None:
+        extra["pump_ls_margin"] = repr(float(ls_margin))
     for instance in s.plugins:
         if instance.plugin_name == CYLINDER_PLUGIN:
-            instance.config = {**instance.config, "pump_flow": repr(float(max_flow))}
+            instance.config = {**instance.config, **extra}
 
 
 def _act_size(act: mujoco.MjsActuator) -> int:

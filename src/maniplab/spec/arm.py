@@ -324,15 +324,21 @@ class Supply:
     """A pump shared by the pinned cylinders, with a flow limit.
 
     Attributes:
-        pressure: its setting, Pa (each pinned cylinder's ``supply_pressure`` must be it).
-        max_flow: the most it delivers, m³/s; cylinders whose valves would draw more together
-            get a lower supply pressure, and slow down.
+        pressure: its setting, Pa (each pinned cylinder's ``supply_pressure`` must be it): a
+            constant-pressure pump's pressure, a load-sensing pump's cut-off.
+        max_flow: the most it delivers (displacement × speed), m³/s; cylinders whose valves
+            would draw more together get a lower supply pressure, and slow down.
+        ls_margin: a load-sensing variable pump's margin, Pa: its pressure follows the highest
+            load-sense pressure (the chamber an open section's meter-in edge feeds) plus this
+            margin, at most ``pressure``; with every section closed it stands by at the tank's
+            plus the margin. None: a constant-pressure pump.
     """
 
     EXAMPLE: ClassVar[str] = "pressure: 8.0e6, max_flow: 1.0e-3"
 
     pressure: Positive
     max_flow: Positive
+    ls_margin: Positive | None = None
 
 
 def _check_supply(supply: Supply | None, info: ValidationInfo) -> Supply | None:
@@ -344,6 +350,9 @@ def _check_supply(supply: Supply | None, info: ValidationInfo) -> Supply | None:
     if not pinned:
         raise ValueError("no joint has a pinned cylinder (an actuator with a 'cylinder:' "
                          "section) to draw from this supply")
+    if supply.ls_margin is not None and not supply.ls_margin < supply.pressure:
+        raise ValueError(f"ls_margin {supply.ls_margin:g} Pa is not below the pump's cut-off "
+                         f"pressure {supply.pressure:g} Pa")
     for joint in pinned:
         own = params_of(joint.actuator).supply_pressure
         if own != supply.pressure:

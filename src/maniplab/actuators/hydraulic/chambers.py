@@ -26,7 +26,7 @@ class ChambersLaw(ctypes.Structure):
     _fields_ = [(name, c_double) for name in (
         "area_a", "area_b", "dead_a", "dead_b", "min_length", "stroke", "bulk_modulus",
         "leakage", "gain_a", "gain_b", "laminar", "supply", "tank", "relief", "inv_tau",
-        "inv_current", "out_a", "out_b", "margin")]
+        "inv_current", "out_a", "out_b", "margin", "ls_margin", "ls_others")]
 
 
 _D = c_double
