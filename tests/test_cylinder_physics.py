@@ -474,3 +474,62 @@ def test_the_valve_flows_of_many_states_are_those_of_each() -> None:
     many = chambers.valve_flows(actuator.law, states)
     s = float(actuator.geometry.length(0.0))
     np.testing.assert_array_equal(many, [chambers.flows(actuator.law, x, s)[:2] for x in states])
+
+
+# --- 1b. a compensated section on a load-sensing pump lifting the boom, against Radau -----------
+
+LS_MARGIN, LS_COMPENSATOR, LS_CURRENT = 15.0e5, 12.0e5, 1.0
+
+
+@dataclasses.dataclass(frozen=True)
+class LoadSensed(Hydraulics):
+    """The boom's section on its own load-sensing pump: the pump's pressure is the chamber the
+    open meter-in edge feeds plus the pump's margin, at most its cut-off PS (tank plus the
+    margin with the spool closed); the section's compensator holds its meter-in drop."""
+
+    pump_margin: float = LS_MARGIN
+
+    def edges(self, x, pa, pb):
+        sensed = pa if x > 0.0 else (pb if x < 0.0 else PT)
+        ps = min(PS, sensed + self.pump_margin)
+        op, rev = max(x, 0.0), max(-x, 0.0)
+        return (self.gain_a * op * self.root_in(ps - pa),
+                self.meter_out * self.gain_b * op * self.root(pb - PT),
+                self.gain_b * rev * self.root_in(ps - pb),
+                self.meter_out * self.gain_a * rev * self.root(pa - PT))
+
+
+@functools.cache
+def ls_reference():
+    valve = {**VALVE, "compensator_margin": LS_COMPENSATOR}
+    plain = Hydraulics.of(boom(valve=valve)["joints"][0]["actuator"])
+    law = LoadSensed(**dataclasses.asdict(plain))
+    pa, pb, x = held(Q0)
+    opts = {"method": "Radau", "rtol": 1e-10, "atol": [1e-12, 1e-12, 1e-4, 1e-4, 1e-12],
+            "dense_output": True}
+    before = solve_ivp(law.boom_rhs, (0.0, T_STEP), [Q0, 0.0, pa, pb, x], args=(0.0,), **opts)
+    after = solve_ivp(law.boom_rhs, (T_STEP, T_LIFT), before.y[:, -1], args=(LS_CURRENT,),
+                      **opts)
+    assert before.success and after.success
+    return before.sol, after.sol
+
+
+@pytest.mark.parametrize("dt", list(TOLERANCES), ids=["derived-step", "0.1ms"])
+def test_a_compensated_section_on_a_load_sensing_pump_lifting_the_boom_matches_radau(dt):
+    """The boom lifted through a section compensated at 12 bar on its own 15 bar load-sensing
+    pump (its cut-off the supply pressure): q, pA and pB against Radau of the equations written
+    here (:class:`LoadSensed`), within the tolerances of the lift on a constant supply. Measured:
+    pA and pB 2.1e-4 of their ranges at the derived step (0.5 ms), 8.4e-6 at 0.1 ms."""
+    data = boom(valve={**VALVE, "compensator_margin": LS_COMPENSATOR})
+    data["supply"] = {"pressure": PS, "max_flow": 1.0, "ls_margin": LS_MARGIN}
+    run = ml.simulate(ml.ManipulatorSpec.from_dict(data),
+                      inputs={"luff": ml.signals.step(LS_CURRENT, t0=T_STEP)}, duration=T_LIFT,
+                      initial=initial(Q0), dt=dt, sample_dt=1e-3)
+    before, after = ls_reference()
+    t = run.t
+    ref = np.where(t <= T_STEP, before(np.minimum(t, T_STEP)), after(np.maximum(t, T_STEP)))
+    q, pa, pb = run.q[:, 0], run["pA"][:, 0], run["pB"][:, 0]
+    assert q[0] - q[-1] > 0.2
+    for name, sim, exact in (("q", q, ref[0]), ("pA", pa, ref[2]), ("pB", pb, ref[3])):
+        error = np.max(np.abs(sim - exact)) / np.ptp(exact)
+        assert error < TOLERANCES[dt], f"{name}: {error:.3g} of its range"
