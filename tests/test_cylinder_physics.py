@@ -119,8 +119,13 @@ class Hydraulics:
         return dp / (dp * dp + self.laminar**2) ** 0.25
 
     def root_in(self, dp: np.ndarray | float) -> np.ndarray | float:
-        """A meter-in edge's root: no flow back into the supply, at most the margin's drop."""
-        return np.where(np.asarray(dp) > 0.0, self.root(np.minimum(dp, self.margin)), 0.0)
+        """A meter-in edge's root: no flow back into the supply; with a compensator the drop it
+        sees is the smooth minimum of dp and the margin over the laminar band."""
+        seen = np.asarray(dp, dtype=float)
+        if math.isfinite(self.margin):
+            over = seen - self.margin
+            seen = 0.5 * (seen + self.margin - np.sqrt(over * over + self.laminar**2))
+        return np.where(seen > 0.0, self.root(seen), 0.0)
 
     def edges(self, x: np.ndarray | float, pa: np.ndarray | float,
               pb: np.ndarray | float) -> tuple:

@@ -32,33 +32,46 @@ def root(dp: float, laminar: float) -> float:
     return dp / (dp * dp + laminar * laminar) ** 0.25
 
 
+def seen(dp: float, margin: float, band: float) -> float:
+    """The drop a compensated meter-in edge sees: the smooth minimum of dp and the margin over
+    the band (the orifices' laminar transition)."""
+    return 0.5 * (dp + margin - math.sqrt((dp - margin) ** 2 + band * band))
+
+
 def test_a_compensated_edge_passes_the_same_flow_over_the_load_range_and_the_orifice_law_below():
-    """Into A at full opening: K_A g(margin) for every cap pressure up to Ps - margin (the datasheet's
-    "flow independent of load"), K_A g(Ps - pA) above it, nothing at Ps; the meter-out edges pass
+    """Into A at full opening: K_A g(seen) with the drop the compensator lets through (the
+    smooth minimum of the drop and the margin, written here); within 1 % over every load whose
+    drop exceeds the margin by more than a bar (the datasheet's "flow independent of load"), the
+    bare orifice's K_A g(Ps - pA) well below the margin, nothing at Ps; the meter-out edges pass
     meter_out_ratio times their port's meter-in gain, the B port flow_ratio times A's."""
     spec = compensated(flow_ratio=0.7, meter_out_ratio=1.4)
     p = spec.joint("lift").actuator
     law = model_of(spec.joint("lift")).law
     drop = 0.5 * p.valve.nominal_pressure_drop  # per edge: the rating is across the valve
     k_a = p.valve.nominal_flow / math.sqrt(drop)
-    laminar, ps, pt = 0.05 * drop, p.supply_pressure, p.tank_pressure
+    band, ps, pt = 0.05 * drop, p.supply_pressure, p.tank_pressure
     s = law.min_length
-    held = k_a * root(MARGIN, laminar)
-    loads = np.linspace(pt, ps - MARGIN, 40)
-    into_a = np.array([chambers.flows(law, np.array([pa, pt, 1.0]), s)[0] for pa in loads])
-    assert np.ptp(into_a) <= 1e-12 * held  # < 1 % asked; exact
-    assert into_a[0] == pytest.approx(held, rel=1e-12)
-    for pa in (ps - 0.9 * MARGIN, ps - 0.3 * MARGIN, ps - 1e4):
-        assert chambers.flows(law, np.array([pa, pt, 1.0]), s)[0] == pytest.approx(
-            k_a * root(ps - pa, laminar), rel=1e-12)
-    assert chambers.flows(law, np.array([ps + 1e5, pt, 1.0]), s)[0] == 0.0  # load check
+
+    def into_a(pa: float, x: float = 1.0) -> float:
+        return float(chambers.flows(law, np.array([pa, pt, x]), s)[0])
+
+    for pa in np.linspace(pt, ps - 1e4, 60):
+        assert into_a(pa) == pytest.approx(k_a * root(seen(ps - pa, MARGIN, band), band),
+                                           rel=1e-12)
+    loads = np.linspace(pt, ps - MARGIN - 1e5, 40)
+    flows = np.array([into_a(pa) for pa in loads])
+    held = k_a * root(MARGIN, band)
+    assert np.max(np.abs(flows / held - 1.0)) < 0.01
+    assert into_a(ps - 0.3 * MARGIN) == pytest.approx(k_a * root(0.3 * MARGIN, band), rel=0.01)
+    assert into_a(ps + 1e5) == 0.0  # the load check
     # the other edges at half opening: B→T (meter-out, out), P→B (meter-in, back), A→T
     pa, pb = 3.0e6, 2.0e6
     out = chambers.flows(law, np.array([pa, pb, 0.5]), s)
-    assert out[1] == pytest.approx(-1.4 * 0.7 * k_a * 0.5 * root(pb - pt, laminar), rel=1e-12)
+    assert out[1] == pytest.approx(-1.4 * 0.7 * k_a * 0.5 * root(pb - pt, band), rel=1e-12)
     back = chambers.flows(law, np.array([pa, pb, -0.5]), s)
-    assert back[1] == pytest.approx(0.7 * k_a * 0.5 * root(MARGIN, laminar), rel=1e-12)
-    assert back[0] == pytest.approx(-1.4 * k_a * 0.5 * root(pa - pt, laminar), rel=1e-12)
+    assert back[1] == pytest.approx(0.7 * k_a * 0.5 * root(seen(ps - pb, MARGIN, band), band),
+                                    rel=1e-12)
+    assert back[0] == pytest.approx(-1.4 * k_a * 0.5 * root(pa - pt, band), rel=1e-12)
 
 
 WINDOW = (0.4, 0.7)
@@ -98,15 +111,18 @@ def _lift_flow(spec: ml.ManipulatorSpec, payload: float) -> tuple[float, float]:
 def test_the_lift_flow_follows_the_spool_and_not_the_load_with_a_compensator():
     """Lifting at full opening with 0 and 250 kg in the grapple (cap side at 3.1 and 6.1 MPa):
     with the compensator the section passes K_A g(margin) into the cap side whatever the load
-    (asked: within 1 %; measured 5e-7); the bare orifice passes 21 % less to the heavy load."""
+    (asked: within 1 %; measured 1.8e-4 and 4.6e-4 below K g(margin), the compensator's
+    regulation band); the bare orifice passes 21 % less to the heavy load."""
     spec = compensated()
     p = spec.joint("lift").actuator
     drop = 0.5 * p.valve.nominal_pressure_drop
     section = p.valve.nominal_flow / math.sqrt(drop) * root(MARGIN, 0.05 * drop)
+    band = 0.05 * drop
     for payload in (0.0, 250.0):
         flow, least_drop = _lift_flow(spec, payload)
-        assert least_drop > MARGIN  # the compensator holds throughout
-        assert flow == pytest.approx(section, rel=1e-3), payload
+        assert least_drop > MARGIN  # the compensator holds throughout: within its band of it
+        least = section / root(MARGIN, band) * root(seen(least_drop, MARGIN, band), band)
+        assert least * (1 - 1e-3) < flow < section * (1 + 1e-3), payload
     bare = ml.builtin_spec("patu655")
     assert _lift_flow(bare, 250.0)[0] < 0.9 * _lift_flow(bare, 0.0)[0]
 
@@ -218,7 +234,9 @@ def test_a_load_sensing_pump_holds_the_highest_load_plus_its_margin():
 
 def test_compensated_sections_on_a_load_sensing_pump_pass_their_own_flows():
     """Lift and tilt (retracting) both compensated at 12 bar on a 15 bar LS pump: the pump
-    follows the higher load, and each section passes K g(12 bar) of its own port (1e-3)."""
+    follows the higher load (the lift's), whose compensator then sees the pump's 15 bar and
+    passes K g(seen(15 bar)) (1e-3); the tilt sees more and passes K g(seen) of its larger drop,
+    between that and K g(12 bar)."""
     spec = _on_ls_pump().with_overrides(
         {f"joints.{j}.actuator.valve.compensator_margin": MARGIN for j in ("lift", "tilt")})
     run = ml.simulate(spec, inputs={"lift": 1.0, "tilt": -1.0}, duration=0.8,
@@ -226,9 +244,14 @@ def test_compensated_sections_on_a_load_sensing_pump_pass_their_own_flows():
     for joint, side in (("lift", 0), ("tilt", 1)):
         v = spec.joint(joint).actuator.valve
         drop = 0.5 * v.nominal_pressure_drop
+        band = 0.05 * drop
         gain = v.nominal_flow / math.sqrt(drop) * (v.flow_ratio if side else 1.0)
+        at_pump_margin = gain * root(seen(PUMP_MARGIN, MARGIN, band), band)
         flow = abs(_into_chambers(run, spec, joint)[side])
-        assert flow == pytest.approx(gain * root(MARGIN, 0.05 * drop), rel=1e-3), joint
+        if joint == "lift":
+            assert flow == pytest.approx(at_pump_margin, rel=1e-3)
+        else:
+            assert at_pump_margin * (1 - 1e-3) < flow < gain * root(MARGIN, band) * (1 + 1e-3)
 
 
 def test_a_load_sensing_margin_above_the_cut_off_is_one_line():

@@ -22,8 +22,9 @@
    Q_A = K_A x+ g_in(Ps - pA) - K_AT x- g(pA - Pt),  Q_B = K_B x- g_in(Ps - pB) - K_BT x+ g(pB - Pt),
    the meter-out gains K_AT, K_BT their own (a datasheet's meter-out coefficients). A meter-in
    edge with a local pressure compensator (margin dp_c) sees at most dp_c: g_in(dp) = g(min(dp,
-   dp_c)), so its flow follows the opening, not the load, while the supply exceeds the chamber's
-   pressure by dp_c (the compensator's spool throttles the rest), and the orifice law below.
+   dp_c)) (a smooth minimum over the band p_l), so its flow follows the opening, not the load,
+   while the supply exceeds the chamber's pressure by dp_c (the compensator's spool throttles
+   the rest), and the orifice law below.
    g(dp) = dp / (dp^2 + p_l^2)^(1/4) is the orifice's square root sign(dp) sqrt(|dp|), made
    laminar (linear) below the transition pressure p_l so that its slope stays finite. The P
    edges have the load-check valve of a mobile valve section: no flow back into the supply line
@@ -75,18 +76,42 @@ static inline double ml_supply_root(double dp, double laminar) {
   return dp > 0.0 ? ml_orifice_root(dp, laminar) : 0.0;
 }
 
-/* A meter-in edge's root at the drop dp = (supply) - (chamber): the load-check valve lets no oil
-   back (0 for dp <= 0); with a local pressure compensator the edge sees at most the
-   compensator's margin, so the flow follows the opening and not the load while the supply
-   exceeds the chamber's pressure by the margin, and the orifice law below it. */
-static inline double ml_meter_in_root(const ml_chambers* c, double dp) {
-  if (c->margin > 0.0 && dp > c->margin) dp = c->margin;
-  return ml_supply_root(dp, c->laminar);
+/* The slope of the orifice's root, dg/d(dp) = (dp^2 / 2 + p_l^2) / (dp^2 + p_l^2)^(5/4), 1/sqrt(Pa). */
+static inline double ml_orifice_slope(double dp, double laminar) {
+  double r2 = dp * dp + laminar * laminar;
+  return (0.5 * dp * dp + laminar * laminar) / (r2 * sqrt(sqrt(r2)));
 }
 
-/* Whether a meter-in edge at the drop dp is compensated (its flow independent of dp). */
-static inline int ml_meter_in_held(const ml_chambers* c, double dp) {
-  return c->margin > 0.0 && dp > c->margin;
+/* The drop a meter-in edge sees at the drop dp = (supply) - (chamber): dp, or with a local
+   pressure compensator of margin m the smooth minimum (dp + m - sqrt((dp - m)^2 + w^2)) / 2,
+   w = p_l: the compensator throttles everything above its margin, with a regulation band of
+   the orifices' laminar transition (a real compensator is a proportional spool; the band keeps
+   the law's slope continuous, so the step is not held at the transition), Pa. */
+static inline double ml_compensated_drop(const ml_chambers* c, double dp) {
+  if (c->margin <= 0.0) return dp;
+  double over = dp - c->margin;
+  return 0.5 * (dp + c->margin - sqrt(over * over + c->laminar * c->laminar));
+}
+
+/* d(ml_compensated_drop)/d(dp). */
+static inline double ml_compensated_slope(const ml_chambers* c, double dp) {
+  if (c->margin <= 0.0) return 1.0;
+  double over = dp - c->margin;
+  return 0.5 * (1.0 - over / sqrt(over * over + c->laminar * c->laminar));
+}
+
+/* A meter-in edge's root at the drop dp: the load-check valve lets no oil back (0 where the
+   drop it sees is <= 0); with a compensator the edge sees ml_compensated_drop, so the flow
+   follows the opening and not the load while the supply exceeds the chamber's pressure by the
+   margin, and the orifice law below it. */
+static inline double ml_meter_in_root(const ml_chambers* c, double dp) {
+  return ml_supply_root(ml_compensated_drop(c, dp), c->laminar);
+}
+
+/* d(ml_meter_in_root)/d(dp), 1/sqrt(Pa). */
+static inline double ml_meter_in_slope(const ml_chambers* c, double dp) {
+  double seen = ml_compensated_drop(c, dp);
+  return seen > 0.0 ? ml_orifice_slope(seen, c->laminar) * ml_compensated_slope(c, dp) : 0.0;
 }
 
 /* A chamber pressure within the valves' bounds [Pt, p_r] (p_r only with a relief valve). */
@@ -155,11 +180,6 @@ static inline void ml_chambers_rates_law(const ml_chambers* c, double pa, double
   rates[2] = (u * c->inv_current - x) * c->inv_tau;
 }
 
-/* The slope of the orifice's root, dg/d(dp) = (dp^2 / 2 + p_l^2) / (dp^2 + p_l^2)^(5/4), 1/sqrt(Pa). */
-static inline double ml_orifice_slope(double dp, double laminar) {
-  double r2 = dp * dp + laminar * laminar;
-  return (0.5 * dp * dp + laminar * laminar) / (r2 * sqrt(sqrt(r2)));
-}
 
 /* The Jacobian of (dpA/dt, dpB/dt, dx/dt) with respect to (pA, pB, x) at (pa, pb, x), length s,
    row-major 3 x 3 (1/s, 1/s and Pa/s per unit opening). At x = 0 the edges that open are those
@@ -176,8 +196,7 @@ static inline void ml_chambers_jacobian_law(const ml_chambers* c, double pa, dou
   double ps = ml_supply_seen(c, pa, pb, x), follows = 1.0 - ml_supply_follows(c, pa, pb, x);
   if (forward) { /* P -> A, B -> T */
     double up = ps - pa, down = pb - c->tank;
-    dqa_dpa = up > 0.0 && !ml_meter_in_held(c, up)
-                  ? -c->gain_a * x * ml_orifice_slope(up, l) * follows : 0.0;
+    dqa_dpa = -c->gain_a * x * ml_meter_in_slope(c, up) * follows;
     dqa_dx = c->gain_a * ml_meter_in_root(c, up);
     dqb_dpb = -c->out_b * x * ml_orifice_slope(down, l);
     dqb_dx = -c->out_b * ml_orifice_root(down, l);
@@ -185,8 +204,7 @@ static inline void ml_chambers_jacobian_law(const ml_chambers* c, double pa, dou
     double up = ps - pb, down = pa - c->tank;
     dqa_dpa = c->out_a * x * ml_orifice_slope(down, l);
     dqa_dx = c->out_a * ml_orifice_root(down, l);
-    dqb_dpb = up > 0.0 && !ml_meter_in_held(c, up)
-                  ? c->gain_b * x * ml_orifice_slope(up, l) * follows : 0.0;
+    dqb_dpb = c->gain_b * x * ml_meter_in_slope(c, up) * follows;
     dqb_dx = -c->gain_b * ml_meter_in_root(c, up);
   }
   double ka = c->bulk_modulus / va, kb = c->bulk_modulus / vb, leak = c->leakage;
