@@ -361,7 +361,7 @@ static double chamber_drive(ml_cascade* c, int j, double tau, double q, double q
   qb = -sign * (fb > least_b ? fb : least_b);
   double gain = e * (qa / va - ratio * qb / vb) * sign;
   *p_d_out = p_d;
-  return clip(need / gain * g->limit[j], -g->limit[j], g->limit[j]);
+  return clip(ml_spool_command(law, need / gain), -g->limit[j], g->limit[j]);
 }
 
 static double valve_drive(ml_cascade* c, int j, double tau, double qd, double qd_ref, double dP,

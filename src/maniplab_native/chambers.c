@@ -37,6 +37,12 @@ void ml_chambers_flows_many(const ml_chambers* c, int count, const double* x, do
   }
 }
 
+/* The spool's opening the command u asks for (ml_spool_target). */
+double ml_chambers_spool_target(const ml_chambers* c, double u) { return ml_spool_target(c, u); }
+
+/* The command that asks for the opening x (ml_spool_command). */
+double ml_chambers_spool_command(const ml_chambers* c, double x) { return ml_spool_command(c, x); }
+
 /* J: d(rates)/d(pA, pB, x), row-major 3 x 3 (chambers.h). */
 void ml_chambers_jacobian(const ml_chambers* c, double pa, double pb, double x, double u,
                           double s, double* J) {

@@ -5,10 +5,12 @@
    evaluate these equations.
 
    States: the cap-side pressure pA and the rod-side pressure pB (Pa), and the spool's opening
-   x (-1..1). Inputs: the valve current u (A, clipped), the cylinder's length s (pin to pin, m)
-   and its rate ds/dt (m/s).
+   x (-1..1). Inputs: the valve command u (A, or the datasheet's unit from neutral, clipped), the
+   cylinder's length s (pin to pin, m) and its rate ds/dt (m/s). The spool's steady opening x*(u)
+   is u / u_max, or 0 within a deadband and linear beyond it, or a characteristic's points
+   interpolated (ml_spool_target).
 
-     dx/dt  = (u / i_max - x) / tau                               (the spool's lag)
+     dx/dt  = (x*(u) - x) / tau                                   (the spool's lag)
      dpA/dt = E / V_A (Q_A - A_A ds/dt - Q_L)                     (cap side)
      dpB/dt = E / V_B (Q_B + A_B ds/dt + Q_L)                     (rod side)
 
@@ -45,6 +47,8 @@
 
 #include <math.h>
 
+#define ML_VALVE_POINTS 16 /* the most points of a valve's opening characteristic */
+
 typedef struct {
   double area_a, area_b;      /* A_A, A_B: cap and rod side areas, m^2 */
   double dead_a, dead_b;      /* V_A0, V_B0: dead volumes, hoses included, m^3 */
@@ -63,7 +67,62 @@ typedef struct {
   double ls_margin;           /* on a load-sensing pump: its margin, Pa; 0: supply at Ps */
   double ls_others;           /* the highest load-sense pressure of the other sections on that
                                  pump (the tank's when they are closed), Pa */
+  double deadband;            /* the command band around neutral where the spool stays shut */
+  double points;              /* the opening characteristic's points (0: linear beyond the
+                                 deadband) */
+  double point_u[ML_VALVE_POINTS]; /* its commands, ascending */
+  double point_x[ML_VALVE_POINTS]; /* the spool's openings there, non-decreasing, -1..1 */
 } ml_chambers;
+
+/* The spool's opening the command u asks for (its steady position), -1..1: the characteristic's
+   points interpolated (held beyond its ends), or 0 within the deadband and linear beyond it to
+   full opening at the command's limit. */
+static inline double ml_spool_target(const ml_chambers* c, double u) {
+  int n = (int)c->points;
+  if (n >= 2) {
+    if (u <= c->point_u[0]) return c->point_x[0];
+    for (int k = 1; k < n; k++) {
+      if (u <= c->point_u[k]) {
+        double w = (u - c->point_u[k - 1]) / (c->point_u[k] - c->point_u[k - 1]);
+        return c->point_x[k - 1] + w * (c->point_x[k] - c->point_x[k - 1]);
+      }
+    }
+    return c->point_x[n - 1];
+  }
+  double a = fabs(u), span = 1.0 / c->inv_current - c->deadband;
+  if (a <= c->deadband) return 0.0;
+  double x = (a - c->deadband) / span;
+  return copysign(x < 1.0 ? x : 1.0, u);
+}
+
+/* The command nearest neutral that asks for the opening x (clipped to -1..1): the inverse of
+   ml_spool_target, so a controller's command passes the deadband or the characteristic. */
+static inline double ml_spool_command(const ml_chambers* c, double x) {
+  x = x < -1.0 ? -1.0 : (x > 1.0 ? 1.0 : x);
+  if (x == 0.0) return 0.0;
+  int n = (int)c->points;
+  if (n >= 2) {
+    if (x > 0.0) {
+      for (int k = 1; k < n; k++) {
+        if (c->point_x[k] >= x && c->point_x[k] > c->point_x[k - 1]) {
+          double w = (x - c->point_x[k - 1]) / (c->point_x[k] - c->point_x[k - 1]);
+          w = w < 0.0 ? 0.0 : w;
+          return c->point_u[k - 1] + w * (c->point_u[k] - c->point_u[k - 1]);
+        }
+      }
+      return c->point_u[n - 1];
+    }
+    for (int k = n - 1; k > 0; k--) {
+      if (c->point_x[k - 1] <= x && c->point_x[k] > c->point_x[k - 1]) {
+        double w = (c->point_x[k] - x) / (c->point_x[k] - c->point_x[k - 1]);
+        w = w < 0.0 ? 0.0 : w;
+        return c->point_u[k] - w * (c->point_u[k] - c->point_u[k - 1]);
+      }
+    }
+    return c->point_u[0];
+  }
+  return copysign(c->deadband + fabs(x) * (1.0 / c->inv_current - c->deadband), x);
+}
 
 /* The orifice's signed square root g(dp), sqrt(Pa). */
 static inline double ml_orifice_root(double dp, double laminar) {
@@ -177,7 +236,7 @@ static inline void ml_chambers_rates_law(const ml_chambers* c, double pa, double
   double leak = c->leakage * (pa - pb);
   rates[0] = c->bulk_modulus / va * (qa - c->area_a * sdot - leak);
   rates[1] = c->bulk_modulus / vb * (qb + c->area_b * sdot + leak);
-  rates[2] = (u * c->inv_current - x) * c->inv_tau;
+  rates[2] = (ml_spool_target(c, u) - x) * c->inv_tau;
 }
 
 
@@ -189,7 +248,7 @@ static inline void ml_chambers_jacobian_law(const ml_chambers* c, double pa, dou
   double va, vb;
   ml_chamber_volumes(c, s, &va, &vb);
   double l = c->laminar;
-  int forward = x > 0.0 || (x == 0.0 && u * c->inv_current >= 0.0);
+  int forward = x > 0.0 || (x == 0.0 && ml_spool_target(c, u) >= 0.0);
   double dqa_dpa, dqa_dx, dqb_dpb, dqb_dx;
   /* on a load-sensing pump that this section's load sets, the supply follows the chamber the
      meter-in edge feeds: the drop, and the edge's flow, do not change with it */

@@ -20,6 +20,26 @@ int ml_config_number(const mjModel* m, int instance, const char* key, double* va
   return 0;
 }
 
+int ml_config_numbers(const mjModel* m, int instance, const char* key, double* values, int most) {
+  const char* text = mj_getPluginConfig(m, instance, key);
+  if (text == NULL || text[0] == '\0') return 0;
+  int count = 0;
+  const char* at = text;
+  while (1) {
+    while (*at == ' ' || *at == '\t' || *at == '\n') at++;
+    if (*at == '\0') return count;
+    char* end = NULL;
+    double x = strtod(at, &end);
+    if (end == at || !isfinite(x) || count >= most) {
+      mju_warning("maniplab plugin: config '%s' = '%s' is not a list of at most %d finite numbers",
+                  key, text, most);
+      return -1;
+    }
+    values[count++] = x;
+    at = end;
+  }
+}
+
 int ml_config_required(const mjModel* m, int instance, const char* plugin, const char* key,
                        double* value, int positive) {
   int status = ml_config_number(m, instance, key, value);

@@ -55,11 +55,13 @@ static const char* kAttributes[] = {
     "area_a", "area_b", "dead_a", "dead_b", "min_length", "stroke", "bulk_modulus", "leakage",
     "gain_a", "gain_b", "laminar", "supply_pressure", "tank_pressure", "relief_pressure",
     "valve_tau", "current_limit", "pump_flow", "out_a", "out_b", "compensator_margin",
-    "pump_ls_margin"};
+    "pump_ls_margin", "deadband", "characteristic"};
 
 static int required(const mjModel* m, int instance, const char* key, double* value, int positive) {
   return ml_config_required(m, instance, PLUGIN, key, value, positive);
 }
+
+static int read_characteristic(const mjModel* m, int instance, ml_chambers* c);
 
 /* An optional positive config number into *value (left as it is when absent); -1 on a bad one. */
 static int optional_positive(const mjModel* m, int instance, const char* key, double* value) {
@@ -104,9 +106,15 @@ static int read_law(const mjModel* m, int instance, ml_chambers* c) {
   c->margin = 0.0;
   if (optional_positive(m, instance, "out_a", &c->out_a) ||
       optional_positive(m, instance, "out_b", &c->out_b) ||
-      optional_positive(m, instance, "compensator_margin", &c->margin)) {
+      optional_positive(m, instance, "compensator_margin", &c->margin) ||
+      optional_positive(m, instance, "deadband", &c->deadband)) {
     return -1;
   }
+  if (!(c->deadband < limit)) {
+    mju_warning(PLUGIN ": deadband %g must be below current_limit %g", c->deadband, limit);
+    return -1;
+  }
+  if (read_characteristic(m, instance, c)) return -1;
   c->relief = 0.0;
   int has_relief = ml_config_number(m, instance, "relief_pressure", &c->relief);
   if (has_relief < 0) return -1;
@@ -118,6 +126,31 @@ static int read_law(const mjModel* m, int instance, ml_chambers* c) {
     mju_warning(PLUGIN ": supply_pressure %g must be above tank_pressure %g", c->supply, c->tank);
     return -1;
   }
+  return 0;
+}
+
+/* The opening characteristic "u1 x1 u2 x2 ...": 2 to ML_VALVE_POINTS points, commands ascending,
+   openings non-decreasing within -1..1. */
+static int read_characteristic(const mjModel* m, int instance, ml_chambers* c) {
+  double pairs[2 * ML_VALVE_POINTS];
+  int count = ml_config_numbers(m, instance, "characteristic", pairs, 2 * ML_VALVE_POINTS);
+  if (count < 0) return -1;
+  if (count == 0) return 0;
+  if (count % 2 || count < 4) {
+    mju_warning(PLUGIN ": characteristic needs 2 to %d (command, opening) pairs", ML_VALVE_POINTS);
+    return -1;
+  }
+  for (int k = 0; k < count / 2; k++) {
+    c->point_u[k] = pairs[2 * k];
+    c->point_x[k] = pairs[2 * k + 1];
+    if (fabs(c->point_x[k]) > 1.0 ||
+        (k > 0 && !(c->point_u[k] > c->point_u[k - 1] && c->point_x[k] >= c->point_x[k - 1]))) {
+      mju_warning(PLUGIN ": characteristic point %d: commands must rise, openings within -1..1 "
+                  "must not fall", k);
+      return -1;
+    }
+  }
+  c->points = count / 2;
   return 0;
 }
 

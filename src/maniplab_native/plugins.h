@@ -9,6 +9,9 @@
 /* A number from the instance's config: 0 and *value set when present and a finite number;
    1 when absent or empty (value untouched); -1 (with a MuJoCo warning) when it is not a number. */
 int ml_config_number(const mjModel* m, int instance, const char* key, double* value);
+/* Up to `most` numbers of a space-separated config list into values: their count (0 when
+   absent), or -1 (with a warning) when it is not such a list. */
+int ml_config_numbers(const mjModel* m, int instance, const char* key, double* values, int most);
 
 /* A required number of the config: 0 and *value set when present and positive (or, with
    positive = 0, non-negative); -1 with a MuJoCo warning naming `plugin` and `key` otherwise. */

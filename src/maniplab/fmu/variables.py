@@ -17,7 +17,7 @@ UNITS: dict[str, dict[str, int]] = {
     "Pa": {"kg": 1, "m": -1, "s": -2}, "m3/s": {"m": 3, "s": -1}, "A": {"A": 1},
     "N": {"kg": 1, "m": 1, "s": -2}, "N.m": {"kg": 1, "m": 2, "s": -2}, "kg": {"kg": 1},
     "m3/(s.Pa)": {"kg": -1, "m": 4, "s": 1}, "N.s/m": {"kg": 1, "s": -1},
-    "N.m.s/rad": {"kg": 1, "m": 2, "s": -1, "rad": -1},
+    "N.m.s/rad": {"kg": 1, "m": 2, "s": -1, "rad": -1}, "V": {"kg": 1, "m": 2, "s": -3, "A": -1},
 }
 """The FMI units the variables use: name -> SI base-unit exponents (``<BaseUnit>``)."""
 
@@ -73,7 +73,8 @@ def _inputs(plant: Plant) -> list[Variable]:
         unit = act.command_unit if act.command_unit in UNITS else ""
         if act.command_unit == "N | N·m":
             unit = "N" if plant.spec.joints[j].prismatic else "N.m"
-        what = {"A": "valve current", "N": "force", "N.m": "torque"}.get(unit, "command")
+        what = {"A": "valve current", "V": "valve voltage from neutral", "N": "force",
+                "N.m": "torque"}.get(unit, "command")
         limit = "" if act.command_limit is None else f" to ±{act.command_limit:g} {unit}"
         out.append(Variable(f"u.{joint}", "u", j, "input", "Real", unit, 0.0,
                             f"{what} of joint {joint}'s actuator, held over each step, clipped"

@@ -20,13 +20,18 @@ LAMINAR = 0.05
 nominal drop per edge: it keeps their slope, and so the step the arm needs, finite."""
 
 
+POINTS = 16
+"""The most points of a valve's opening characteristic (chambers.h's ML_VALVE_POINTS)."""
+
+
 class ChambersLaw(ctypes.Structure):
     """``ml_chambers`` (chambers.h): one cylinder's parameters as the C law uses them."""
 
-    _fields_ = [(name, c_double) for name in (
+    _fields_ = [*((name, c_double) for name in (
         "area_a", "area_b", "dead_a", "dead_b", "min_length", "stroke", "bulk_modulus",
         "leakage", "gain_a", "gain_b", "laminar", "supply", "tank", "relief", "inv_tau",
-        "inv_current", "out_a", "out_b", "margin", "ls_margin", "ls_others")]
+        "inv_current", "out_a", "out_b", "margin", "ls_margin", "ls_others", "deadband",
+        "points")), ("point_u", c_double * POINTS), ("point_x", c_double * POINTS)]
 
 
 _D = c_double
@@ -38,6 +43,8 @@ _C = Functions({
     "ml_chambers_flows": (None, [_LAW, _D, _D, _D, _D, _P]),
     "ml_chambers_forces": (None, [_LAW, ctypes.c_int, _P, _P, _P]),
     "ml_chambers_flows_many": (None, [_LAW, ctypes.c_int, _P, _P]),
+    "ml_chambers_spool_target": (_D, [_LAW, _D]),
+    "ml_chambers_spool_command": (_D, [_LAW, _D]),
 })
 """The C functions (``maniplab_native/chambers.c``)."""
 
@@ -46,19 +53,23 @@ def chambers_law(p: PinnedHydraulicActuator) -> ChambersLaw:
     """The C law's parameters of a pinned cylinder's spec."""
     c, v = p.cylinder, p.valve
     dead_a, dead_b = p.chamber_dead_volumes  # hoses included
-    return ChambersLaw(
+    law = ChambersLaw(
         area_a=c.cap_area, area_b=c.rod_area, dead_a=dead_a, dead_b=dead_b,
         min_length=c.min_length, stroke=c.stroke, bulk_modulus=p.bulk_modulus,
         leakage=p.leakage, gain_a=v.gain_a, gain_b=v.gain_b, laminar=LAMINAR * v.edge_drop,
         supply=p.supply_pressure, tank=p.tank_pressure, relief=p.relief_pressure or 0.0,
         inv_tau=1.0 / v.tau, inv_current=1.0 / v.current_limit, out_a=v.out_a, out_b=v.out_b,
-        margin=v.compensator_margin or 0.0)
+        margin=v.compensator_margin or 0.0, deadband=v.deadband)
+    for k, (command, opening) in enumerate(v.characteristic or ()):
+        law.point_u[k], law.point_x[k] = command, opening
+    law.points = len(v.characteristic or ())
+    return law
 
 
-def plugin_config(p: PinnedHydraulicActuator) -> dict[str, float]:
+def plugin_config(p: PinnedHydraulicActuator) -> dict[str, float | str]:
     """The engine plugin's config (the names ``cylinder.c`` reads)."""
     law = chambers_law(p)
-    config = {name: getattr(law, name) for name in (
+    config: dict[str, float | str] = {name: getattr(law, name) for name in (
         "area_a", "area_b", "dead_a", "dead_b", "min_length", "stroke", "bulk_modulus",
         "leakage", "gain_a", "gain_b", "laminar", "out_a", "out_b")}
     config |= {"supply_pressure": p.supply_pressure, "tank_pressure": p.tank_pressure,
@@ -67,6 +78,11 @@ def plugin_config(p: PinnedHydraulicActuator) -> dict[str, float]:
         config["relief_pressure"] = p.relief_pressure
     if p.valve.compensator_margin is not None:
         config["compensator_margin"] = p.valve.compensator_margin
+    if p.valve.deadband > 0.0:
+        config["deadband"] = p.valve.deadband
+    if p.valve.characteristic is not None:
+        config["characteristic"] = " ".join(repr(float(v)) for point in p.valve.characteristic
+                                            for v in point)
     return config
 
 
@@ -110,3 +126,13 @@ def valve_flows(law: ChambersLaw, x: np.ndarray) -> np.ndarray:
     _C().ml_chambers_flows_many(ctypes.byref(law), len(states), states.ctypes.data,
                                 out.ctypes.data)
     return out
+
+
+def spool_target(law: ChambersLaw, command: float) -> float:
+    """The spool's steady opening (-1..1) at the valve command (its deadband or characteristic)."""
+    return float(_C().ml_chambers_spool_target(ctypes.byref(law), float(command)))
+
+
+def spool_command(law: ChambersLaw, opening: float) -> float:
+    """The command nearest neutral that asks for ``opening`` (clipped to -1..1)."""
+    return float(_C().ml_chambers_spool_command(ctypes.byref(law), float(opening)))

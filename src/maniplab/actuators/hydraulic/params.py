@@ -3,15 +3,17 @@ cylinder of the paper's eq. (4), and a two-chamber cylinder pinned across its jo
 
 from __future__ import annotations
 
+import itertools
 import math
 from typing import Annotated, ClassVar, Literal
 
+import numpy as np
 from pydantic import BeforeValidator, ValidationInfo, field_validator
 
 from maniplab.actuators.hydraulic.hose import P_ATM, Hoses
 from maniplab.actuators.hydraulic.valve import relief_gain
 from maniplab.schema import NonNegative, Positive, Vec3, validated
-from maniplab.schema.fields import sequence
+from maniplab.schema.fields import Real, sequence
 
 
 @validated
@@ -157,7 +159,16 @@ class Valve:
             exceeds the chamber's pressure by it (below, the edge sees the whole drop, the
             orifice law); None: no compensator.
         tau: the spool's time constant, s.
-        current_limit: the current that opens it fully, A.
+        current_limit: the command that opens it fully, measured from neutral: A, or the
+            unit of ``command_unit``.
+        command_unit: the unit of the valve's command as its datasheet gives it: "A", "mA",
+            "V" or "%"; the command is measured from the datasheet's neutral (a 0.25-0.75 Us
+            signal with Us = 24 V: "V", current_limit 6.0, neutral at 12 V).
+        deadband: the command band around neutral where the spool stays shut (its overlap), in
+            the command's unit; beyond it the opening rises linearly to full at current_limit.
+        characteristic: the opening at each of 2 to 16 commands instead, [[command, opening],
+            ...]: commands rising within ±current_limit, openings within -1..1 not falling,
+            0 at the neutral command; interpolated, held beyond its ends.
     """
 
     EXAMPLE: ClassVar[str] = "nominal_flow: 9.0e-4, nominal_pressure_drop: 35.0e5"
@@ -170,6 +181,33 @@ class Valve:
     compensator_margin: Positive | None = None
     tau: Positive = 0.01
     current_limit: Positive = 1.0
+    command_unit: Literal["A", "mA", "V", "%"] = "A"
+    deadband: NonNegative = 0.0
+    characteristic: Annotated[tuple[tuple[Real, Real], ...], BeforeValidator(sequence)] | None = None
+
+    def __post_init__(self) -> None:
+        if not self.deadband < self.current_limit:
+            raise ValueError(f"deadband {self.deadband:g} is not below current_limit "
+                             f"{self.current_limit:g}")
+        points = self.characteristic
+        if points is None:
+            return
+        if self.deadband > 0.0:
+            raise ValueError("give a deadband or a characteristic, not both (the "
+                             "characteristic's points include the deadband)")
+        if not 2 <= len(points) <= 16:
+            raise ValueError(f"characteristic has {len(points)} points; expected 2 to 16")
+        u = [c for c, _ in points]
+        x = [o for _, o in points]
+        if any(b <= a for a, b in itertools.pairwise(u)) or any(
+                b < a for a, b in itertools.pairwise(x)):
+            raise ValueError("characteristic: commands must rise and openings must not fall")
+        if max(abs(v) for v in u) > self.current_limit or max(abs(v) for v in x) > 1.0:
+            raise ValueError(f"characteristic: commands within ±current_limit "
+                             f"({self.current_limit:g}) and openings within -1..1")
+        if not u[0] <= 0.0 <= u[-1] or abs(float(np.interp(0.0, u, x))) > 1e-12:
+            raise ValueError("characteristic: the spool must be shut (opening 0) at the "
+                             "neutral command 0")
 
     @property
     def edge_drop(self) -> float:

@@ -67,7 +67,6 @@ class PinnedCylinder(ActuatorPlugin):
     states: ClassVar[tuple[str, ...]] = ("pA", "pB", "spool")
     state_units: ClassVar[tuple[str, ...]] = ("Pa", "Pa", "")
     command: ClassVar[str] = "iv"
-    command_unit: ClassVar[str] = "A"
     spring_name: ClassVar[str] = "oil spring"
     outputs: ClassVar[dict[str, str]] = {"stroke": "m", "cylinder_force": "N"}
     params: PinnedHydraulicActuator
@@ -95,6 +94,11 @@ class PinnedCylinder(ActuatorPlugin):
     def law(self) -> chambers.ChambersLaw:
         """The parameters as the C law takes them."""
         return chambers.chambers_law(self.params)
+
+    @property
+    def command_unit(self) -> str:  # type: ignore[override]
+        """The valve command's unit, as its datasheet gives it (``valve.command_unit``)."""
+        return self.params.valve.command_unit
 
     @property
     def command_limit(self) -> float:
@@ -161,8 +165,9 @@ class PinnedCylinder(ActuatorPlugin):
         if x is None:
             x = self.holding(force, q)
             return Steady(x, math.copysign(math.inf, float(self.geometry.arm(q)) * v or 1.0))
-        u = x[2] * p.valve.current_limit
-        return Steady(x, u if abs(x[2]) <= 1.0 else math.copysign(math.inf, x[2]))
+        if abs(x[2]) > 1.0:
+            return Steady(x, math.copysign(math.inf, x[2]))
+        return Steady(x, chambers.spool_command(self.law, float(x[2])))
 
     # --- what bounds it -------------------------------------------------------------------------
     def bounds(self) -> list[Bound]:
@@ -327,6 +332,12 @@ class PinnedCylinder(ActuatorPlugin):
         sizes = (f"{' ' * len(j.name)}  A_A {c.cap_area * 1e4:.4g} cm², A_B "
                  f"{c.rod_area * 1e4:.4g} cm², valve edges K_A {law.gain_a:.4g}, K_B "
                  f"{law.gain_b:.4g}, K_AT {law.out_a:.4g}, K_BT {law.out_b:.4g} m³/(s·√Pa)")
+        v = self.params.valve
+        if v.deadband > 0.0 or v.characteristic is not None or v.command_unit != "A":
+            shape = (f"deadband ±{v.deadband:g}" if v.characteristic is None else
+                     f"{len(v.characteristic)}-point characteristic")
+            sizes += (f"; command in {v.command_unit} from neutral, full at ±{v.current_limit:g}, "
+                      f"{shape}")
         margin = self.params.valve.compensator_margin
         if margin is not None:
             sizes += (f"; compensated at {margin / 1e5:.4g} bar: at most "

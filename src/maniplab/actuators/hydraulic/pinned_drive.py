@@ -73,7 +73,8 @@ class ChamberDrive(ForceDrive):
         spool = np.array([n / self._opening_gain(c, *values, n) for c, n, values in
                           zip(self.cylinders, need, zip(pa, pb, va, vb))])
         self.log = {"pL_d": p_desired}
-        return self.clip(spool * self.limit)
+        return self.clip(np.array([chambers.spool_command(c.law, float(x))
+                                   for c, x in zip(self.cylinders, spool)]))
 
     @staticmethod
     def _terms(c: PinnedCylinder, q: float, pa: float, pb: float) -> tuple[float, ...]:
