@@ -49,14 +49,18 @@ void ml_chambers_jacobian(const ml_chambers* c, double pa, double pb, double x, 
   ml_chambers_jacobian_law(c, pa, pb, x, u, s, J);
 }
 
-/* One exponential step from y0 (chambers.h's ml_chambers_step, without sub-steps). */
+/* One exponential step from y0 (chambers.h's ml_chambers_step, without sub-steps), the supply
+   pressure going from ps0 to ps1. */
 static int one_step(const ml_chambers* c, const double* y0, double u, double s0, double sdot0,
-                    double s1, double sdot1, double h, double* y1) {
+                    double ps0, double s1, double sdot1, double ps1, double h, double* y1) {
   double J[9], f0[3], f1[3], df[3], dy[3];
   double scale[3] = {c->supply, c->supply, 1.0};
-  ml_chambers_jacobian_law(c, y0[0], y0[1], y0[2], u, s0, J);
-  ml_chambers_rates_law(c, y0[0], y0[1], y0[2], u, s0, sdot0, f0);
-  ml_chambers_rates_law(c, y0[0], y0[1], y0[2], u, s1, sdot1, f1);
+  ml_chambers start = *c, end = *c;
+  start.supply = ps0;
+  end.supply = ps1;
+  ml_chambers_jacobian_law(&start, y0[0], y0[1], y0[2], u, s0, J);
+  ml_chambers_rates_law(&start, y0[0], y0[1], y0[2], u, s0, sdot0, f0);
+  ml_chambers_rates_law(&end, y0[0], y0[1], y0[2], u, s1, sdot1, f1);
   for (int i = 0; i < 3; i++) {
     for (int j = 0; j < 3; j++) J[3 * i + j] *= scale[j] / scale[i];
     df[i] = (f1[i] - f0[i]) / scale[i];
@@ -68,13 +72,15 @@ static int one_step(const ml_chambers* c, const double* y0, double u, double s0,
 }
 
 int ml_chambers_step(const ml_chambers* c, const double* y0, double u, double s0, double sdot0,
-                     double s1, double sdot1, double h, int substeps, double* y1) {
-  double y[3] = {y0[0], y0[1], y0[2]};
+                     double s1, double sdot1, double supply1, double h, int substeps,
+                     double* y1) {
+  double y[3] = {y0[0], y0[1], y0[2]}, ps0 = c->supply;
   int status = 0;
-  for (int k = 0; k < substeps; k++) { /* the length and its rate linear over the step */
+  for (int k = 0; k < substeps; k++) { /* the length, its rate and the supply linear */
     double a = (double)k / substeps, b = (double)(k + 1) / substeps;
     status |= one_step(c, y, u, s0 + a * (s1 - s0), sdot0 + a * (sdot1 - sdot0),
-                       s0 + b * (s1 - s0), sdot0 + b * (sdot1 - sdot0), h / substeps, y1);
+                       ps0 + a * (supply1 - ps0), s0 + b * (s1 - s0),
+                       sdot0 + b * (sdot1 - sdot0), ps0 + b * (supply1 - ps0), h / substeps, y1);
     for (int i = 0; i < 3; i++) y[i] = y1[i];
   }
   return status;

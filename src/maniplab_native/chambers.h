@@ -285,11 +285,13 @@ static inline double ml_chambers_force_law(const ml_chambers* c, double pa, doub
 
 /* One step h of (pA, pB, x) from y0 by the exponential Rosenbrock-Euler method (stiff.h), with
    the current u held and the cylinder's length and rate going linearly from (s0, sdot0) to
-   (s1, sdot1), in `substeps` equal sub-steps (each re-linearised at its start): y1 = y0 + the
-   increment, the pressures not yet bounded. Returns 0, or -1 (y1 NaN) on a non-finite input.
-   The pressures are scaled by the supply and the spool by 1 for the matrix exponential. */
+   (s1, sdot1) and the supply pressure from c->supply to supply1, in `substeps` equal sub-steps
+   (each re-linearised at its start): y1 = y0 + the increment, the pressures not yet bounded.
+   Returns 0, or -1 (y1 NaN) on a non-finite input. The pressures are scaled by the supply and
+   the spool by 1 for the matrix exponential. */
 int ml_chambers_step(const ml_chambers* c, const double* y0, double u, double s0, double sdot0,
-                     double s1, double sdot1, double h, int substeps, double* y1);
+                     double s1, double sdot1, double supply1, double h, int substeps,
+                     double* y1);
 
 /* The sub-steps of a plant step's final update of the chambers (cylinder.c's `advance`): four
    re-linearisations make it about ten times more accurate than one on a crane's valve reversals

@@ -41,21 +41,24 @@ typedef struct {
   ml_chambers law;
   double pump_flow;     /* Q_max of the shared supply, m^3/s; 0: a supply of its own */
   double ls_margin;     /* a load-sensing pump's margin, Pa; 0: a constant-pressure pump */
+  double pump_tau;      /* the pump pressure's response time, s; 0: quasi-static */
 } Cylinder;
 
 static int g_slot = -1;  /* this plugin's registered slot */
 
 /* plugin_state of an instance: the step's start (time, states, length, rate, supply pressure),
-   whether it is recorded, the states predicted for the step's end (a shared pump's), and on a
-   load-sensing pump the other sections' highest load-sense pressure over the step */
+   whether it is recorded, the states predicted for the step's end (a shared pump's), on a
+   load-sensing pump the other sections' highest load-sense pressure over the step, the supply
+   pressure at the step's end (it goes linearly from START_SUPPLY), and a pump with a response
+   time its own pressure (PUMP_P, once PUMP_SET) */
 enum { START_TIME, HAVE_START, START_Y, START_S = START_Y + 3, START_SDOT, START_SUPPLY, PRED_Y,
-       START_OTHERS = PRED_Y + 3, NSTATE };
+       START_OTHERS = PRED_Y + 3, END_SUPPLY, PUMP_P, PUMP_SET, NSTATE };
 
 static const char* kAttributes[] = {
     "area_a", "area_b", "dead_a", "dead_b", "min_length", "stroke", "bulk_modulus", "leakage",
     "gain_a", "gain_b", "laminar", "supply_pressure", "tank_pressure", "relief_pressure",
     "valve_tau", "current_limit", "pump_flow", "out_a", "out_b", "compensator_margin",
-    "pump_ls_margin", "deadband", "characteristic"};
+    "pump_ls_margin", "deadband", "characteristic", "pump_response"};
 
 static int required(const mjModel* m, int instance, const char* key, double* value, int positive) {
   return ml_config_required(m, instance, PLUGIN, key, value, positive);
@@ -176,7 +179,10 @@ static int init(const mjModel* m, mjData* d, int instance) {
     mju_warning(PLUGIN ": pump_flow %g must be positive", c.pump_flow);
     return -1;
   }
-  if (optional_positive(m, instance, "pump_ls_margin", &c.ls_margin)) return -1;
+  if (optional_positive(m, instance, "pump_ls_margin", &c.ls_margin) ||
+      optional_positive(m, instance, "pump_response", &c.pump_tau)) {
+    return -1;
+  }
   return ml_keep(d, instance, &c, sizeof(c));
 }
 
@@ -196,10 +202,14 @@ static double length_rate(const mjModel* m, const mjData* d, const Cylinder* c) 
   return rate;
 }
 
-/* The states a cylinder's valve draws with: d->act's, or (predicted) its plugin_state's. */
+/* Which states a cylinder's valve draws with: d->act's (CURRENT), those predicted for the
+   step's end (PREDICTED) or those of the step's start (STARTED), plugin_state's. */
+enum { CURRENT, PREDICTED, STARTED };
+
 static const double* drawing_states(const mjModel* m, const mjData* d, int i, const Cylinder* c,
-                                    int predicted) {
-  if (predicted) return d->plugin_state + m->plugin_stateadr[i] + PRED_Y;
+                                    int which) {
+  if (which == PREDICTED) return d->plugin_state + m->plugin_stateadr[i] + PRED_Y;
+  if (which == STARTED) return d->plugin_state + m->plugin_stateadr[i] + START_Y;
   return d->act + m->actuator_actadr[c->actuator];
 }
 
@@ -217,31 +227,40 @@ static double pump_draw(const mjModel* m, const mjData* d, double ps, int predic
 }
 
 /* The highest load-sense pressure of the cylinders on the shared pump but `skip` (-1: none): the
-   chamber an open section's meter-in edge feeds, the tank's for a closed one. */
+   chamber an open (or opening) section's meter-in edge feeds, the tank's for a closed one. */
 static double sensed_max(const mjModel* m, const mjData* d, int skip, double tank, int predicted) {
   double highest = tank;
   for (int i = 0; i < m->nplugin; i++) {
     const Cylinder* c = (const Cylinder*)d->plugin_data[i];
     if (i == skip || m->plugin[i] != g_slot || c == NULL || c->pump_flow <= 0.0) continue;
     const double* x = drawing_states(m, d, i, c, predicted);
-    double sensed = x[2] > 0.0 ? x[0] : (x[2] < 0.0 ? x[1] : tank);
+    /* a spool at 0 that its command opens senses the side it opens to at once (it is open an
+       instant later: the load-sense pressure jumps there, not a step later) */
+    double way = x[2] != 0.0 ? x[2] : ml_spool_target(&c->law, ml_control(m, d, c->actuator));
+    double sensed = way > 0.0 ? x[0] : (way < 0.0 ? x[1] : tank);
     highest = sensed > highest ? sensed : highest;
   }
   return highest;
 }
 
-/* The shared supply's pressure cap for the step: its setting, or lower where the valves would
-   draw more than Q_max (the draw rises with ps: bisection down to the tank pressure). A
-   load-sensing pump offers the highest load-sense pressure plus its margin (at most its setting,
-   the cut-off); while its flow suffices the cap is the setting and each section's law follows
-   the load-sense pressure itself (chambers.h, ml_supply_seen). */
-static double pump_pressure(const mjModel* m, const mjData* d, const Cylinder* c, int predicted) {
-  double high = c->law.supply, low = c->law.tank;
+/* What the pump offers at these states: its setting, or a load-sensing pump's highest
+   load-sense pressure plus its margin, at most its setting (the cut-off). */
+static double pump_target(const mjModel* m, const mjData* d, const Cylinder* c, int predicted) {
+  double high = c->law.supply;
   if (c->ls_margin > 0.0) {
     double sensed = sensed_max(m, d, -1, c->law.tank, predicted) + c->ls_margin;
     high = sensed < high ? sensed : high;
   }
-  if (pump_draw(m, d, high, predicted) <= c->pump_flow) return c->law.supply;
+  return high;
+}
+
+/* The supply pressure when the pump offers `offered`: that, or lower where the valves would draw
+   more than Q_max there (the pump at full displacement: the draw rises with ps, bisection down
+   to the tank pressure). */
+static double flow_limited(const mjModel* m, const mjData* d, const Cylinder* c, double offered,
+                           int predicted) {
+  double high = offered, low = c->law.tank;
+  if (pump_draw(m, d, high, predicted) <= c->pump_flow) return offered;
   for (int k = 0; k < 100 && high - low > 1e-12 * c->law.supply; k++) {
     double mid = 0.5 * (low + high);
     if (pump_draw(m, d, mid, predicted) > c->pump_flow) high = mid; else low = mid;
@@ -249,12 +268,24 @@ static double pump_pressure(const mjModel* m, const mjData* d, const Cylinder* c
   return 0.5 * (low + high);
 }
 
+/* The shared supply's pressure cap for the step. A quasi-static load-sensing pump whose flow
+   suffices gives its setting: each section's law then follows the load-sense pressure itself
+   (chambers.h, ml_supply_seen). A pump with a response time gives its own pressure, flow
+   limited. */
+static double pump_pressure(const mjModel* m, const mjData* d, const Cylinder* c, double pump,
+                            int predicted) {
+  if (c->pump_tau > 0.0) return flow_limited(m, d, c, pump, predicted);
+  double offered = pump_target(m, d, c, predicted);
+  double limited = flow_limited(m, d, c, offered, predicted);
+  return limited == offered ? c->law.supply : limited;
+}
+
 /* The law over the recorded step: the supply pressure (cap) and, on a load-sensing pump, its
    margin and the other sections' load-sense pressure. */
 static ml_chambers step_law(const Cylinder* c, const mjtNum* state) {
   ml_chambers law = c->law;
   law.supply = state[START_SUPPLY];
-  if (c->pump_flow > 0.0 && c->ls_margin > 0.0) {
+  if (c->pump_flow > 0.0 && c->ls_margin > 0.0 && c->pump_tau <= 0.0) {
     law.ls_margin = c->ls_margin;
     law.ls_others = state[START_OTHERS];
   }
@@ -269,14 +300,29 @@ static void act_dot(const mjModel* m, mjData* d, int instance) {
   double s = d->actuator_length[c->output], sdot = d->actuator_velocity[c->output];
   const double* y = d->act + adr;
   if (!state[HAVE_START] || d->time == state[START_TIME]) { /* a step starts here */
-    if (c->pump_flow > 0.0) law.supply = pump_pressure(m, d, c, 0);
+    if (c->pump_flow > 0.0) {
+      /* a pump with a response time starts at its own pressure (at first, at its target) and
+         is expected at the step's end to have moved towards the target (pump_over_step says
+         where it ends) */
+      double target = pump_target(m, d, c, CURRENT);
+      double pump = state[PUMP_SET] ? state[PUMP_P] : target;
+      law.supply = pump_pressure(m, d, c, pump, CURRENT);
+      state[PUMP_P] = pump;
+      state[END_SUPPLY] = law.supply;
+      if (c->pump_tau > 0.0) {
+        double decay = exp(-m->opt.timestep / c->pump_tau);
+        state[END_SUPPLY] = pump_pressure(m, d, c, target + (pump - target) * decay, CURRENT);
+      }
+    } else {
+      state[END_SUPPLY] = law.supply;
+    }
     state[START_TIME] = d->time;
     state[HAVE_START] = 1.0;
     for (int i = 0; i < 3; i++) state[START_Y + i] = y[i];
     state[START_S] = s;
     state[START_SDOT] = sdot;
     state[START_SUPPLY] = law.supply;
-    state[START_OTHERS] = sensed_max(m, d, instance, c->law.tank, 0);
+    state[START_OTHERS] = sensed_max(m, d, instance, c->law.tank, CURRENT);
   }
   law = step_law(c, state);
   ml_chambers_rates_law(&law, y[0], y[1], y[2], ml_control(m, d, c->actuator), s, sdot,
@@ -295,11 +341,14 @@ static int first_on_pump(const mjModel* m, const mjData* d, int instance) {
 }
 
 /* A shared pump's pressure over the step, second order: every cylinder on it predicted to the
-   step's end at the start's pressure, the pressure at the predicted states, and each cylinder's
-   recorded supply pressure set to the mean of the two (the first cylinder's `advance` does this
-   for all, before any of them has moved). */
+   step's end, and the supply at the predicted states. Quasi-static, each cylinder's supply over
+   the step is the mean of the two. With a response time, the pump's own pressure relaxes over
+   the step towards its target (the mean of the target at the start's states and at the
+   predicted ones), exactly, and each cylinder's supply goes linearly from the start's to the
+   end's (flow limited at each). The first cylinder's `advance` does this for all, before any of
+   them has moved. */
 static void pump_over_step(const mjModel* m, mjData* d) {
-  double h = m->opt.timestep, start = 0.0;
+  double h = m->opt.timestep, start = 0.0, pump = 0.0, end;
   const Cylinder* any = NULL;
   for (int i = 0; i < m->nplugin; i++) {
     const Cylinder* c = (const Cylinder*)d->plugin_data[i];
@@ -307,21 +356,32 @@ static void pump_over_step(const mjModel* m, mjData* d) {
     mjtNum* state = d->plugin_state + m->plugin_stateadr[i];
     ml_chambers law = step_law(c, state);
     start = state[START_SUPPLY];
+    pump = state[PUMP_P];
     double s0 = state[START_S], sdot0 = state[START_SDOT], sdot1 = length_rate(m, d, c);
     ml_chambers_step(&law, state + START_Y, ml_control(m, d, c->actuator), s0, sdot0,
-                     s0 + 0.5 * h * (sdot0 + sdot1), sdot1, h, 1, state + PRED_Y);
+                     s0 + 0.5 * h * (sdot0 + sdot1), sdot1, state[END_SUPPLY], h, 1,
+                     state + PRED_Y);
     any = c;
   }
   if (any == NULL) return;
-  double mean = 0.5 * (start + pump_pressure(m, d, any, 1));
+  if (any->pump_tau > 0.0) {
+    double target = 0.5 * (pump_target(m, d, any, STARTED) + pump_target(m, d, any, PREDICTED));
+    pump = target + (pump - target) * exp(-h / any->pump_tau);
+    end = pump_pressure(m, d, any, pump, PREDICTED);
+  } else {
+    start = end = 0.5 * (start + pump_pressure(m, d, any, 0.0, PREDICTED));
+  }
   for (int i = 0; i < m->nplugin; i++) {
     const Cylinder* c = (const Cylinder*)d->plugin_data[i];
     if (m->plugin[i] != g_slot || c == NULL || c->pump_flow <= 0.0) continue;
     mjtNum* state = d->plugin_state + m->plugin_stateadr[i];
-    state[START_SUPPLY] = mean;
+    state[START_SUPPLY] = start;
+    state[END_SUPPLY] = end;
+    state[PUMP_P] = pump;
+    state[PUMP_SET] = 1.0;
     if (c->ls_margin > 0.0) { /* the others' load-sense pressure: the mean of start and end */
-      double end = sensed_max(m, d, i, c->law.tank, 1);
-      state[START_OTHERS] = 0.5 * (state[START_OTHERS] + end);
+      double sensed = sensed_max(m, d, i, c->law.tank, PREDICTED);
+      state[START_OTHERS] = 0.5 * (state[START_OTHERS] + sensed);
     }
   }
 }
@@ -337,7 +397,8 @@ static void advance(const mjModel* m, mjData* d, int instance) {
     ml_chambers law = step_law(c, state);
     double s0 = state[START_S], sdot0 = state[START_SDOT], sdot1 = length_rate(m, d, c);
     ml_chambers_step(&law, state + START_Y, ml_control(m, d, c->actuator), s0, sdot0,
-                     s0 + 0.5 * h * (sdot0 + sdot1), sdot1, h, ML_CHAMBER_SUBSTEPS, x);
+                     s0 + 0.5 * h * (sdot0 + sdot1), sdot1, state[END_SUPPLY], h,
+                     ML_CHAMBER_SUBSTEPS, x);
   }
   state[HAVE_START] = 0.0;
   x[0] = ml_chamber_bounded(&c->law, x[0]);
@@ -355,8 +416,10 @@ static void compute(const mjModel* m, mjData* d, int instance, int capability_bi
        the cylinder moving as this stage has it move */
     ml_chambers law = step_law(c, state);
     double s = d->actuator_length[c->output], sdot = d->actuator_velocity[c->output];
+    double share = since / m->opt.timestep;
+    double supply = state[START_SUPPLY] + share * (state[END_SUPPLY] - state[START_SUPPLY]);
     ml_chambers_step(&law, state + START_Y, ml_control(m, d, c->actuator), state[START_S],
-                     state[START_SDOT], s, sdot, since, 1, y);
+                     state[START_SDOT], s, sdot, supply, since, 1, y);
   }
   d->actuator_force[c->output] = ml_chambers_force_law(&c->law, y[0], y[1]);
 }

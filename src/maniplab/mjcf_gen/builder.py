@@ -61,7 +61,15 @@ from maniplab.mjcb import suspended
 from maniplab.mjcf_gen import checks, names, visuals
 from maniplab.mjcf_gen.accuracy import AccurateStep, accurate_step
 from maniplab.mjcf_gen.timestep import DEFAULT, StepLimit, default_step, step_limit
-from maniplab.spec import Body, EndEffector, Joint, ManipulatorSpec, inertia_matrix, model_of
+from maniplab.spec import (
+    Body,
+    EndEffector,
+    Joint,
+    ManipulatorSpec,
+    Supply,
+    inertia_matrix,
+    model_of,
+)
 
 MASS_BOUND = 1e-12
 """``compiler.boundmass`` and ``boundinertia``: kg and kg·m²."""
@@ -138,7 +146,7 @@ def _arm(spec: ManipulatorSpec) -> mujoco.MjSpec:
     for joint, mount in zip(spec.joints, mounts):
         _add_actuator(s, joint, mount)
     if spec.supply is not None:
-        _share_supply(s, spec.supply.max_flow, spec.supply.ls_margin)
+        _share_supply(s, spec.supply)
     for joint in spec.joints:
         if joint.friction.model is FrictionModel.lugre:
             _add_bristles(s, joint)
@@ -259,13 +267,16 @@ def _add_actuator(s: mujoco.MjSpec, joint: Joint, mount: Mount) -> None:
         set_plugin(s, act, plugin)
 
 
-def _share_supply(s: mujoco.MjSpec, max_flow: float, ls_margin: float | None) -> None:
-    """Every pinned cylinder draws from one pump of flow ``max_flow`` (m³/s): its plugin instance
-    gets ``pump_flow`` (``maniplab_native/cylinder.c`` lowers their shared supply pressure when
-    their valves would draw more), and a load-sensing pump's margin ``pump_ls_margin`` (Pa)."""
-    extra = {"pump_flow": repr(float(max_flow))}
-    if ls_margin is not None:
-        extra["pump_ls_margin"] = repr(float(ls_margin))
+def _share_supply(s: mujoco.MjSpec, supply: Supply) -> None:
+    """Every pinned cylinder draws from one pump (the spec's ``supply``): its plugin instance gets
+    the pump's flow ``pump_flow`` (``maniplab_native/cylinder.c`` lowers their shared supply
+    pressure when their valves would draw more), a load-sensing pump's margin
+    ``pump_ls_margin`` and the pump's response time ``pump_response``."""
+    extra = {"pump_flow": repr(float(supply.max_flow))}
+    if supply.ls_margin is not None:
+        extra["pump_ls_margin"] = repr(float(supply.ls_margin))
+    if supply.response is not None:
+        extra["pump_response"] = repr(float(supply.response))
     for instance in s.plugins:
         if instance.plugin_name == CYLINDER_PLUGIN:
             instance.config = {**instance.config, **extra}

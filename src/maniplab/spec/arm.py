@@ -332,6 +332,9 @@ class Supply:
             load-sense pressure (the chamber an open section's meter-in edge feeds) plus this
             margin, at most ``pressure``; with every section closed it stands by at the tank's
             plus the margin. None: a constant-pressure pump.
+        response: the time constant of the pump pressure's first-order response to what it
+            is asked (the load-sense pressure plus margin, or the setting), s: a swash plate's
+            regulator; None: it answers at once. The flow limit always acts at once.
     """
 
     EXAMPLE: ClassVar[str] = "pressure: 8.0e6, max_flow: 1.0e-3"
@@ -339,6 +342,7 @@ class Supply:
     pressure: Positive
     max_flow: Positive
     ls_margin: Positive | None = None
+    response: Positive | None = None
 
 
 def _check_supply(supply: Supply | None, info: ValidationInfo) -> Supply | None:
