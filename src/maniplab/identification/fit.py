@@ -91,9 +91,8 @@ linear scale, x itself on the log scale): large enough to step over the roughnes
 the residuals."""
 
 SCAN_SPAN, SCAN_STEP, SCAN_ROUNDS = 0.4, 0.02, 3
-"""The grid of :meth:`_Problem.scan`: ±0.4 of x in steps of 0.02, ±40 % of each parameter's start
-in 2 % steps (on the log scale: the value times e^±0.4, 0.67 to 1.49, in steps of 2 %), at most
-three rounds over the parameters."""
+"""The grid of :meth:`_Problem.scan`: ±40 % of each parameter's start in 2 % steps about its
+value (on either scale), at most three rounds over the parameters."""
 
 PROFILE_BATCHES = 8
 """A profile walks at most this many batches of 8 steps each way (half a standard deviation in the
@@ -386,15 +385,22 @@ class _Problem:
         """Move each parameter to the best of a grid along its axis, the others held, until no
         move lowers the cost: stick/slip gives the cost narrow valleys between plateaus, where a
         local solver started on a plateau sees no slope. The grid spans
-        :data:`SCAN_SPAN` of the start in steps of :data:`SCAN_STEP`, within the bounds."""
+        :data:`SCAN_SPAN` of the start about the value in steps of :data:`SCAN_STEP` of the
+        start, within the bounds (on either scale the same values)."""
         lower, upper = self.bounds()
         r = self.residual_at(x)
         best = float(r @ r)
+        moves = np.arange(-SCAN_SPAN, SCAN_SPAN + 1e-9, SCAN_STEP)
+        moves = moves[np.abs(moves) > 0.5 * SCAN_STEP]
         for _ in range(SCAN_ROUNDS):
             moved = False
             for i in range(len(self.parameters)):
-                grid = x[i] + np.arange(-SCAN_SPAN, SCAN_SPAN + 1e-9, SCAN_STEP)
-                grid = grid[(grid > lower[i]) & (grid < upper[i]) & (grid != x[i])]
+                if self.log[i]:  # value + start g, as on the linear scale; none at or below 0
+                    ratio = math.exp(x[i]) + moves
+                    grid = np.log(np.where(ratio > 0.0, ratio, np.nan))
+                else:
+                    grid = x[i] + moves
+                grid = grid[(grid > lower[i]) & (grid < upper[i])]
                 points = [_along(x, i, g) for g in grid]
                 costs = [float(r @ r) for r in self.residuals(points, pool)]
                 if costs and min(costs) < best:
