@@ -127,21 +127,28 @@ class Hydraulics:
             seen = 0.5 * (seen + self.margin - np.sqrt(over * over + self.laminar**2))
         return np.where(seen > 0.0, self.root(seen), 0.0)
 
+    def supply(self, x: float, pa: float, pb: float) -> float:
+        """The supply pressure the meter-in edges see at these states, Pa: PS."""
+        return PS
+
     def edges(self, x: np.ndarray | float, pa: np.ndarray | float,
-              pb: np.ndarray | float) -> tuple:
-        """The four edges' flows (P->A, B->T, P->B, A->T), m³/s, at spool x."""
+              pb: np.ndarray | float, ps: float = PS) -> tuple:
+        """The four edges' flows (P->A, B->T, P->B, A->T), m³/s, at spool x and supply ps."""
         op, rev = np.maximum(x, 0.0), np.maximum(-x, 0.0)
-        return (self.gain_a * op * self.root_in(PS - pa),
+        return (self.gain_a * op * self.root_in(ps - pa),
                 self.meter_out * self.gain_b * op * self.root(pb - PT),
-                self.gain_b * rev * self.root_in(PS - pb),
+                self.gain_b * rev * self.root_in(ps - pb),
                 self.meter_out * self.gain_a * rev * self.root(pa - PT))
 
-    def boom_rhs(self, _t: float, z: np.ndarray, iv: float) -> list[float]:
-        """(q, q̇, pA, pB, x)' of the boom on its cylinder at valve current iv (A)."""
+    def boom_rhs(self, _t: float, z: np.ndarray, iv: float, ps: float | None = None
+                 ) -> list[float]:
+        """(q, q̇, pA, pB, x)' of the boom on its cylinder at valve current iv (A), the supply
+        at ps (None: :meth:`supply`'s)."""
         q, v, pa, pb, x = z
         s, r = length(q), arm(q)
         sdot = r * v
-        pa_in, b_out, pb_in, a_out = self.edges(x, pa, pb)
+        ps = self.supply(x, pa, pb) if ps is None else ps
+        pa_in, b_out, pb_in, a_out = self.edges(x, pa, pb, ps)
         va, vb = volumes(s)
         leak = self.leakage * (pa - pb)
         e = self.bulk_modulus
@@ -494,14 +501,10 @@ class LoadSensed(Hydraulics):
 
     pump_margin: float = LS_MARGIN
 
-    def edges(self, x, pa, pb):
+    def supply(self, x: float, pa: float, pb: float) -> float:
+        """The pump's pressure: the sensed chamber plus its margin, at most PS."""
         sensed = pa if x > 0.0 else (pb if x < 0.0 else PT)
-        ps = min(PS, sensed + self.pump_margin)
-        op, rev = max(x, 0.0), max(-x, 0.0)
-        return (self.gain_a * op * self.root_in(ps - pa),
-                self.meter_out * self.gain_b * op * self.root(pb - PT),
-                self.gain_b * rev * self.root_in(ps - pb),
-                self.meter_out * self.gain_a * rev * self.root(pa - PT))
+        return min(PS, sensed + self.pump_margin)
 
 
 @functools.cache
@@ -545,32 +548,19 @@ LS_RESPONSE = 0.03
 
 
 @dataclasses.dataclass(frozen=True)
-class LaggingPump(Hydraulics):
+class LaggingPump(LoadSensed):
     """The boom's compensated section on a load-sensing pump whose pressure p answers with a
     first-order lag: dp/dt = (min(PS, sensed + margin) - p) / tau_p, the section's meter-in edge
     seeing p (the state vector gains p at its end)."""
 
-    pump_margin: float = LS_MARGIN
     pump_tau: float = LS_RESPONSE
 
     def pump_rhs(self, t: float, z: np.ndarray, iv: float) -> list[float]:
-        q, v, pa, pb, x, p = z
-        sensed = pa if x > 0.0 else (pb if x < 0.0 else PT)
-        target = min(PS, sensed + self.pump_margin)
-        op, rev = max(x, 0.0), max(-x, 0.0)
-        edges = (self.gain_a * op * self.root_in(p - pa),
-                 self.meter_out * self.gain_b * op * self.root(pb - PT),
-                 self.gain_b * rev * self.root_in(p - pb),
-                 self.meter_out * self.gain_a * rev * self.root(pa - PT))
-        s, r = length(q), arm(q)
-        pa_in, b_out, pb_in, a_out = edges
-        va, vb = volumes(s)
-        leak = self.leakage * (pa - pb)
-        u = min(max(iv, -self.current_limit), self.current_limit)
-        return [v, (gravity_torque(q) + (pa * A_A - pb * A_B) * r) / INERTIA,
-                self.bulk_modulus / va * (pa_in - a_out - A_A * r * v - leak),
-                self.bulk_modulus / vb * (pb_in - b_out + A_B * r * v + leak),
-                (u / self.current_limit - x) / self.tau, (target - p) / self.pump_tau]
+        """(q, q̇, pA, pB, x, p)': the boom's at the pump's pressure p, and p's lag towards
+        the quasi-static pump's (:meth:`LoadSensed.supply`)."""
+        _, _, pa, pb, x, p = z
+        target = self.supply(x, pa, pb)
+        return [*self.boom_rhs(t, z[:5], iv, ps=p), (target - p) / self.pump_tau]
 
 
 @pytest.mark.parametrize("dt", list(TOLERANCES), ids=["derived-step", "0.1ms"])

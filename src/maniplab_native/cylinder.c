@@ -268,15 +268,14 @@ static double flow_limited(const mjModel* m, const mjData* d, const Cylinder* c,
   return 0.5 * (low + high);
 }
 
-/* The shared supply's pressure cap for the step. A quasi-static load-sensing pump whose flow
+/* The shared supply's pressure cap for the step when the pump offers `offered` (its own
+   pressure with a response time, else its target). A quasi-static load-sensing pump whose flow
    suffices gives its setting: each section's law then follows the load-sense pressure itself
-   (chambers.h, ml_supply_seen). A pump with a response time gives its own pressure, flow
-   limited. */
-static double pump_pressure(const mjModel* m, const mjData* d, const Cylinder* c, double pump,
+   (chambers.h, ml_supply_seen). */
+static double pump_pressure(const mjModel* m, const mjData* d, const Cylinder* c, double offered,
                             int predicted) {
-  if (c->pump_tau > 0.0) return flow_limited(m, d, c, pump, predicted);
-  double offered = pump_target(m, d, c, predicted);
   double limited = flow_limited(m, d, c, offered, predicted);
+  if (c->pump_tau > 0.0) return limited;
   return limited == offered ? c->law.supply : limited;
 }
 
@@ -305,7 +304,7 @@ static void act_dot(const mjModel* m, mjData* d, int instance) {
          is expected at the step's end to have moved towards the target (pump_over_step says
          where it ends) */
       double target = pump_target(m, d, c, CURRENT);
-      double pump = state[PUMP_SET] ? state[PUMP_P] : target;
+      double pump = c->pump_tau > 0.0 && state[PUMP_SET] ? state[PUMP_P] : target;
       law.supply = pump_pressure(m, d, c, pump, CURRENT);
       state[PUMP_P] = pump;
       state[END_SUPPLY] = law.supply;
@@ -322,7 +321,9 @@ static void act_dot(const mjModel* m, mjData* d, int instance) {
     state[START_S] = s;
     state[START_SDOT] = sdot;
     state[START_SUPPLY] = law.supply;
-    state[START_OTHERS] = sensed_max(m, d, instance, c->law.tank, CURRENT);
+    if (c->pump_flow > 0.0 && c->ls_margin > 0.0) {
+      state[START_OTHERS] = sensed_max(m, d, instance, c->law.tank, CURRENT);
+    }
   }
   law = step_law(c, state);
   ml_chambers_rates_law(&law, y[0], y[1], y[2], ml_control(m, d, c->actuator), s, sdot,
@@ -369,7 +370,8 @@ static void pump_over_step(const mjModel* m, mjData* d) {
     pump = target + (pump - target) * exp(-h / any->pump_tau);
     end = pump_pressure(m, d, any, pump, PREDICTED);
   } else {
-    start = end = 0.5 * (start + pump_pressure(m, d, any, 0.0, PREDICTED));
+    start = end = 0.5 * (start + pump_pressure(m, d, any, pump_target(m, d, any, PREDICTED),
+                                               PREDICTED));
   }
   for (int i = 0; i < m->nplugin; i++) {
     const Cylinder* c = (const Cylinder*)d->plugin_data[i];

@@ -68,27 +68,33 @@ static double open_excess(double e, double r, double k, double lambda, double u)
   return e * exp(-x) + u * (r * phi1 + k * u * phi2);
 }
 
+/* The real roots of a u^2 + b u + c = 0 into roots (the form that loses no digits to
+   cancellation; one root where a = 0): their count. */
+static int quadratic_roots(double a, double b, double c, double* roots) {
+  if (a == 0.0) {
+    if (b == 0.0) return 0;
+    roots[0] = -c / b;
+    return 1;
+  }
+  double disc = b * b - 4.0 * a * c;
+  if (disc < 0.0) return 0;
+  double q = -0.5 * (b + copysign(sqrt(disc), b));
+  if (q == 0.0) {
+    roots[0] = 0.0;
+    return 1;
+  }
+  roots[0] = q / a;
+  roots[1] = c / q;
+  return 2;
+}
+
 /* The first time u in (0, t] at which the closed valve's pressure p + r u + k u^2/2 reaches the
    relief setting on either side (moving outwards), or -1. */
 static double opening(double p, double r, double k, double pr, double t) {
   double first = -1.0;
   for (int side = -1; side <= 1; side += 2) {
-    double a = 0.5 * k, b = r, c0 = p - side * pr, roots[2];
-    int n = 0;
-    if (a == 0.0) {
-      if (b != 0.0) roots[n++] = -c0 / b;
-    } else {
-      double disc = b * b - 4.0 * a * c0;
-      if (disc >= 0.0) {
-        double q = -0.5 * (b + copysign(sqrt(disc), b));
-        if (q != 0.0) {
-          roots[n++] = q / a;
-          roots[n++] = c0 / q;
-        } else {
-          roots[n++] = 0.0;
-        }
-      }
-    }
+    double roots[2];
+    int n = quadratic_roots(0.5 * k, r, p - side * pr, roots);
     for (int i = 0; i < n; i++) {
       double u = roots[i];
       if (u > 0.0 && u <= t && side * (r + k * u) > 0.0 && (first < 0.0 || u < first)) first = u;
@@ -181,22 +187,7 @@ static const double kGaussW[4] = {0.3626837833783620, 0.3137066458778873, 0.2223
 static void crossings(double p0, double r, double k, double level, double h, double* times,
                       int* count) {
   double roots[2];
-  int n = 0;
-  double c0 = p0 - level;
-  if (k == 0.0) {
-    if (r != 0.0) roots[n++] = -c0 / r;
-  } else {
-    double disc = r * r - 4.0 * k * c0;
-    if (disc >= 0.0) {
-      double q = -0.5 * (r + copysign(sqrt(disc), r));
-      if (q != 0.0) {
-        roots[n++] = q / k;
-        roots[n++] = c0 / q;
-      } else {
-        roots[n++] = 0.0;
-      }
-    }
-  }
+  int n = quadratic_roots(k, r, p0 - level, roots);
   for (int i = 0; i < n; i++) {
     if (roots[i] > 0.0 && roots[i] < h) times[(*count)++] = roots[i];
   }

@@ -64,6 +64,32 @@ ML_INLINE void solve_columns(int n, int m, double* D, const double* N, double* X
   }
 }
 
+/* The squarings that bring a matrix of 1-norm `norm` within kTheta. */
+static int squarings_for(double norm) {
+  return norm > kTheta ? (int)ceil(log2(norm / kTheta)) : 0;
+}
+
+/* The Pade sums' first terms of `count` entries of X = A scale: P = X, N = c1 X, D = -c1 X (the
+   identity is the caller's to add). */
+ML_INLINE void pade_begin(int count, const double* A, double scale, double* X, double* P,
+                          double* N, double* D) {
+  for (int k = 0; k < count; k++) {
+    X[k] = A[k] * scale;
+    P[k] = X[k];
+    N[k] = kPade[1] * X[k];
+    D[k] = -kPade[1] * X[k];
+  }
+}
+
+/* The Pade sums' term of `power` from `count` entries of P = X^power: N += c P, D += (-1)^p c P. */
+ML_INLINE void pade_add(int count, int power, const double* P, double* N, double* D) {
+  double sign = (power % 2) ? -1.0 : 1.0;
+  for (int k = 0; k < count; k++) {
+    N[k] += kPade[power] * P[k];
+    D[k] += sign * kPade[power] * P[k];
+  }
+}
+
 int ml_expm(int n, const double* A, double* E) {
   double norm = 0.0;  /* the 1-norm: the largest column sum */
   for (int j = 0; j < n; j++) {
@@ -75,17 +101,11 @@ int ml_expm(int n, const double* A, double* E) {
     }
     norm = sum > norm ? sum : norm;
   }
-  int squarings = 0;
-  if (norm > kTheta) squarings = (int)ceil(log2(norm / kTheta));
+  int squarings = squarings_for(norm);
   double scale = ldexp(1.0, -squarings);
   double X[ML_EXPM_MAX * ML_EXPM_MAX], P[ML_EXPM_MAX * ML_EXPM_MAX], T[ML_EXPM_MAX * ML_EXPM_MAX];
   double N[ML_EXPM_MAX * ML_EXPM_MAX], D[ML_EXPM_MAX * ML_EXPM_MAX];
-  for (int k = 0; k < n * n; k++) {
-    X[k] = A[k] * scale;
-    P[k] = X[k];
-    N[k] = kPade[1] * X[k];
-    D[k] = -kPade[1] * X[k];
-  }
+  pade_begin(n * n, A, scale, X, P, N, D);
   for (int i = 0; i < n; i++) {
     N[i * n + i] += 1.0;
     D[i * n + i] += 1.0;
@@ -93,11 +113,7 @@ int ml_expm(int n, const double* A, double* E) {
   for (int power = 2; power <= 6; power++) {  /* P = X^power */
     multiply(n, P, X, T);
     memcpy(P, T, sizeof(double) * n * n);
-    double sign = (power % 2) ? -1.0 : 1.0;
-    for (int k = 0; k < n * n; k++) {
-      N[k] += kPade[power] * P[k];
-      D[k] += sign * kPade[power] * P[k];
-    }
+    pade_add(n * n, power, P, N, D);
   }
   solve_columns(n, n, D, N, E);
   for (int s = 0; s < squarings; s++) {
@@ -113,26 +129,15 @@ int ml_expm(int n, const double* A, double* E) {
    powers and the n x 2 upper right block are formed, about half the work of the whole matrix.
    Returns the upper right block of exp(M) in E12 (n x 2). */
 ML_INLINE void augmented_expm(int n, const double* A, const double* B, double norm, double* E12) {
-  int squarings = 0;
-  if (norm > kTheta) squarings = (int)ceil(log2(norm / kTheta));
+  int squarings = squarings_for(norm);
   double scale = ldexp(1.0, -squarings), nu = scale; /* the scaled N's entry */
   double X[ML_STIFF_MAX * ML_STIFF_MAX], P11[ML_STIFF_MAX * ML_STIFF_MAX];
   double T11[ML_STIFF_MAX * ML_STIFF_MAX], N11[ML_STIFF_MAX * ML_STIFF_MAX];
   double D11[ML_STIFF_MAX * ML_STIFF_MAX], E11[ML_STIFF_MAX * ML_STIFF_MAX];
   double X12[ML_STIFF_MAX * 2], P12[ML_STIFF_MAX * 2], T12[ML_STIFF_MAX * 2];
   double N12[ML_STIFF_MAX * 2], D12[ML_STIFF_MAX * 2];
-  for (int k = 0; k < n * n; k++) {
-    X[k] = A[k] * scale;
-    P11[k] = X[k];
-    N11[k] = kPade[1] * X[k];
-    D11[k] = -kPade[1] * X[k];
-  }
-  for (int k = 0; k < 2 * n; k++) {
-    X12[k] = B[k] * scale;
-    P12[k] = X12[k];
-    N12[k] = kPade[1] * X12[k];
-    D12[k] = -kPade[1] * X12[k];
-  }
+  pade_begin(n * n, A, scale, X, P11, N11, D11);
+  pade_begin(2 * n, B, scale, X12, P12, N12, D12);
   for (int i = 0; i < n; i++) {
     N11[i * n + i] += 1.0;
     D11[i * n + i] += 1.0;
@@ -150,15 +155,8 @@ ML_INLINE void augmented_expm(int n, const double* A, const double* B, double no
     multiply(n, P11, X, T11);
     memcpy(P11, T11, sizeof(double) * n * n);
     memcpy(P12, T12, sizeof(double) * 2 * n);
-    double sign = (power % 2) ? -1.0 : 1.0;
-    for (int k = 0; k < n * n; k++) {
-      N11[k] += kPade[power] * P11[k];
-      D11[k] += sign * kPade[power] * P11[k];
-    }
-    for (int k = 0; k < 2 * n; k++) {
-      N12[k] += kPade[power] * P12[k];
-      D12[k] += sign * kPade[power] * P12[k];
-    }
+    pade_add(n * n, power, P11, N11, D11);
+    pade_add(2 * n, power, P12, N12, D12);
   }
   /* D R = N: R22 = [[1, nu], [0, 1]] (exact: c1 = 1/2), R11 = D11^-1 N11,
      R12 = D11^-1 (N12 - D12 R22) */

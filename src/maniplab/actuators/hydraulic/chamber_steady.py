@@ -91,7 +91,9 @@ class SteadyFlows:
         return grid, self._balances_b(grid)
 
     def _balances_b(self, pa: np.ndarray) -> np.ndarray:
-        """:meth:`_balance_b` at each pressure of ``pa`` (K,), in two calls of the valve law."""
+        """At each cap pressure of ``pa`` (K,), with pB from the force and the opening from the A
+        side's balance: what the valve leaves the B side short of, m³/s (±inf where no opening
+        passes A's need); two calls of the valve law for all."""
         pb = (pa * self.aa - self.f) / self.ab
         leak = self.p.leakage * (pa - pb)
         need_a, need_b = self.aa * self.sdot + leak, -self.ab * self.sdot - leak
@@ -106,10 +108,8 @@ class SteadyFlows:
         return np.where(finite, need_b - got, np.copysign(np.inf, -x))
 
     def _balance_b(self, pa: float) -> float:
-        x = self.with_a(pa)
-        if not math.isfinite(x[2]):
-            return math.copysign(math.inf, -x[2])
-        return self.shortfall(x, 1)
+        """:meth:`_balances_b` at one cap pressure, m³/s."""
+        return float(self._balances_b(np.array([pa]))[0])
 
     def balanced(self) -> np.ndarray | None:
         """Case 1."""
