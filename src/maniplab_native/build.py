@@ -238,8 +238,9 @@ def library_path() -> Path:
     try:
         proc = run_compiler(argv, timeout=300)
         if proc.returncode != 0:
-            last = (proc.stderr.strip().splitlines() or ["(no message)"])[-1]
-            raise NativeBuildError(f"maniplab's MuJoCo plugins: the C compiler failed: {last}")
+            lines = proc.stderr.strip().splitlines() or ["(no message)"]
+            first = next((line for line in lines if "error" in line), lines[-1])
+            raise NativeBuildError(f"maniplab's MuJoCo plugins: the C compiler failed: {first}")
         os.replace(tmp, target)
     finally:
         if os.path.exists(tmp):

@@ -1,5 +1,7 @@
 /* The two-chamber cylinder's equations (chambers.h) as exported functions, for ctypes
    (maniplab.actuators.hydraulic.chambers calls these; nothing there repeats the equations). */
+#include <stddef.h>
+
 #include "chambers.h"
 
 #include "stiff.h"
@@ -71,17 +73,36 @@ static int one_step(const ml_chambers* c, const double* y0, double u, double s0,
   return status;
 }
 
-int ml_chambers_step(const ml_chambers* c, const double* y0, double u, double s0, double sdot0,
-                     double s1, double sdot1, double supply1, double h, int substeps,
-                     double* y1) {
-  double y[3] = {y0[0], y0[1], y0[2]}, ps0 = c->supply;
+/* Adds to energy the powers at (y, length rate, supply) times `weight` (s). */
+static void add_powers(const ml_chambers* c, const double* y, double sdot, double supply,
+                       double weight, double* energy) {
+  ml_chambers law = *c;
+  double powers[ML_ENERGIES];
+  law.supply = supply;
+  ml_chambers_powers(&law, y[0], y[1], y[2], sdot, powers);
+  for (int k = 0; k < ML_ENERGIES; k++) energy[k] += weight * powers[k];
+}
+
+int ml_chambers_step_energy(const ml_chambers* c, const double* y0, double u, double s0,
+                            double sdot0, double s1, double sdot1, double supply1, double h,
+                            int substeps, double* y1, double* energy) {
+  double y[3] = {y0[0], y0[1], y0[2]}, ps0 = c->supply, half = 0.5 * h / substeps;
   int status = 0;
   for (int k = 0; k < substeps; k++) { /* the length, its rate and the supply linear */
     double a = (double)k / substeps, b = (double)(k + 1) / substeps;
-    status |= one_step(c, y, u, s0 + a * (s1 - s0), sdot0 + a * (sdot1 - sdot0),
-                       ps0 + a * (supply1 - ps0), s0 + b * (s1 - s0),
-                       sdot0 + b * (sdot1 - sdot0), ps0 + b * (supply1 - ps0), h / substeps, y1);
+    double ra = sdot0 + a * (sdot1 - sdot0), rb = sdot0 + b * (sdot1 - sdot0);
+    double pa = ps0 + a * (supply1 - ps0), pb = ps0 + b * (supply1 - ps0);
+    if (energy) add_powers(c, y, ra, pa, half, energy);
+    status |= one_step(c, y, u, s0 + a * (s1 - s0), ra, pa, s0 + b * (s1 - s0), rb, pb,
+                       h / substeps, y1);
+    if (energy) add_powers(c, y1, rb, pb, half, energy);
     for (int i = 0; i < 3; i++) y[i] = y1[i];
   }
   return status;
+}
+
+int ml_chambers_step(const ml_chambers* c, const double* y0, double u, double s0, double sdot0,
+                     double s1, double sdot1, double supply1, double h, int substeps,
+                     double* y1) {
+  return ml_chambers_step_energy(c, y0, u, s0, sdot0, s1, sdot1, supply1, h, substeps, y1, NULL);
 }

@@ -278,6 +278,60 @@ static inline void ml_chambers_jacobian_law(const ml_chambers* c, double pa, dou
   J[8] = -c->inv_tau;
 }
 
+/* The energy of a run, split by where it goes (J, accumulated by ml_chambers_step_energy and
+   ml_chambers_bound_energy): what the supply delivered through this section (at the pressure
+   its meter-in edge sees), the losses across the meter-in edge's orifice, its compensator, the
+   meter-out edge, the piston's leakage, the relief and anti-cavitation valves, the energy the
+   return oil carries into the tank line (Pt Q), the work on the piston ((pA A_A - pB A_B) ds/dt,
+   negative where the load drives it) and the energy put into compressing the oil
+   (pA V_A dpA/dt + pB V_B dpB/dt) / E. At each instant
+
+     pump = meter_in + compensator + meter_out + leakage + relief + anticavitation + tank + work
+            + compression,
+
+   which is the chambers' continuity multiplied by their pressures: the balance closes by the
+   equations, and a missing flow would break it. */
+enum { ML_E_PUMP, ML_E_METER_IN, ML_E_COMPENSATOR, ML_E_METER_OUT, ML_E_LEAKAGE, ML_E_RELIEF,
+       ML_E_ANTICAVITATION, ML_E_TANK, ML_E_WORK, ML_E_COMPRESSION, ML_ENERGIES };
+
+/* The powers (W) of the energy terms at one instant (the relief and anti-cavitation valves act
+   at the bounds, ml_chambers_bound_energy): powers[ML_ENERGIES]. */
+static inline void ml_chambers_powers(const ml_chambers* c, double pa, double pb, double x,
+                                      double sdot, double* powers) {
+  double ps = ml_supply_seen(c, pa, pb, x), qa, qb;
+  ml_valve_edges(c, x, pa, pb, &qa, &qb);
+  double fed = x > 0.0 ? pa : pb, drained = x > 0.0 ? pb : pa;
+  double in = x > 0.0 ? qa : (x < 0.0 ? qb : 0.0), out = x > 0.0 ? -qb : (x < 0.0 ? -qa : 0.0);
+  double drop = ps - fed, seen = ml_compensated_drop(c, drop), leak = c->leakage * (pa - pb);
+  for (int k = 0; k < ML_ENERGIES; k++) powers[k] = 0.0;
+  powers[ML_E_PUMP] = ps * in;
+  powers[ML_E_METER_IN] = seen * in;
+  powers[ML_E_COMPENSATOR] = (drop - seen) * in;
+  powers[ML_E_METER_OUT] = (drained - c->tank) * out;
+  powers[ML_E_LEAKAGE] = (pa - pb) * leak;
+  powers[ML_E_TANK] = c->tank * out;
+  powers[ML_E_WORK] = (pa * c->area_a - pb * c->area_b) * sdot;
+  powers[ML_E_COMPRESSION] = pa * (qa - c->area_a * sdot - leak) + pb * (qb + c->area_b * sdot + leak);
+}
+
+/* A chamber's pressure p of volume v brought within its bounds (ml_chamber_bounded), the oil
+   that left through the relief valve or came in through the anti-cavitation valve accounted in
+   energy[ML_ENERGIES] (NULL: not): the oil's compression energy changes by v (b^2 - p^2) / 2E
+   (b the bound), the tank line carries Pt dV, and the valve takes the rest. Returns the bound
+   pressure. */
+static inline double ml_chambers_bound_energy(const ml_chambers* c, double p, double v,
+                                              double* energy) {
+  double b = ml_chamber_bounded(c, p);
+  if (energy && b != p) {
+    double stored = v * (b * b - p * p) / (2.0 * c->bulk_modulus);
+    double tank = c->tank * v * (p - b) / c->bulk_modulus;  /* > 0: oil left to the tank */
+    energy[ML_E_COMPRESSION] += stored;
+    energy[ML_E_TANK] += tank;
+    energy[b < p ? ML_E_RELIEF : ML_E_ANTICAVITATION] += -stored - tank;
+  }
+  return b;
+}
+
 /* F = pA A_A - pB A_B with the pressures within their bounds, N. */
 static inline double ml_chambers_force_law(const ml_chambers* c, double pa, double pb) {
   return ml_chamber_bounded(c, pa) * c->area_a - ml_chamber_bounded(c, pb) * c->area_b;
@@ -292,6 +346,13 @@ static inline double ml_chambers_force_law(const ml_chambers* c, double pa, doub
 int ml_chambers_step(const ml_chambers* c, const double* y0, double u, double s0, double sdot0,
                      double s1, double sdot1, double supply1, double h, int substeps,
                      double* y1);
+
+/* ml_chambers_step that also adds the step's energies to energy[ML_ENERGIES] (J): each power
+   (ml_chambers_powers) by the trapezoidal rule over each sub-step, every term at the same
+   instants, so that their balance closes as it does at each instant. */
+int ml_chambers_step_energy(const ml_chambers* c, const double* y0, double u, double s0,
+                            double sdot0, double s1, double sdot1, double supply1, double h,
+                            int substeps, double* y1, double* energy);
 
 /* The sub-steps of a plant step's final update of the chambers (cylinder.c's `advance`): four
    re-linearisations make it about ten times more accurate than one on a crane's valve reversals

@@ -50,9 +50,18 @@ static int g_slot = -1;  /* this plugin's registered slot */
    whether it is recorded, the states predicted for the step's end (a shared pump's), on a
    load-sensing pump the other sections' highest load-sense pressure over the step, the supply
    pressure at the step's end (it goes linearly from START_SUPPLY), and a pump with a response
-   time its own pressure (PUMP_P, once PUMP_SET) */
+   time its own pressure (PUMP_P, once PUMP_SET); then the energies since the last reset
+   (chambers.h's ML_E_* terms, J; Python zeroes them when a run starts) */
 enum { START_TIME, HAVE_START, START_Y, START_S = START_Y + 3, START_SDOT, START_SUPPLY, PRED_Y,
-       START_OTHERS = PRED_Y + 3, END_SUPPLY, PUMP_P, PUMP_SET, NSTATE };
+       START_OTHERS = PRED_Y + 3, END_SUPPLY, PUMP_P, PUMP_SET, ENERGY,
+       NSTATE = ENERGY + ML_ENERGIES };
+
+/* Where an instance's energies start in its plugin_state, and how many there are (for the
+   recorder, which reads them from the recorded plugin states). */
+int ml_cylinder_energy_slot(int* count) {
+  *count = ML_ENERGIES;
+  return ENERGY;
+}
 
 static const char* kAttributes[] = {
     "area_a", "area_b", "dead_a", "dead_b", "min_length", "stroke", "bulk_modulus", "leakage",
@@ -398,9 +407,12 @@ static void advance(const mjModel* m, mjData* d, int instance) {
     if (c->pump_flow > 0.0 && first_on_pump(m, d, instance)) pump_over_step(m, d);
     ml_chambers law = step_law(c, state);
     double s0 = state[START_S], sdot0 = state[START_SDOT], sdot1 = length_rate(m, d, c);
-    ml_chambers_step(&law, state + START_Y, ml_control(m, d, c->actuator), s0, sdot0,
-                     s0 + 0.5 * h * (sdot0 + sdot1), sdot1, state[END_SUPPLY], h,
-                     ML_CHAMBER_SUBSTEPS, x);
+    double s1 = s0 + 0.5 * h * (sdot0 + sdot1), va, vb;
+    ml_chambers_step_energy(&law, state + START_Y, ml_control(m, d, c->actuator), s0, sdot0, s1,
+                            sdot1, state[END_SUPPLY], h, ML_CHAMBER_SUBSTEPS, x, state + ENERGY);
+    ml_chamber_volumes(&c->law, s1, &va, &vb);
+    x[0] = ml_chambers_bound_energy(&c->law, x[0], va, state + ENERGY);
+    x[1] = ml_chambers_bound_energy(&c->law, x[1], vb, state + ENERGY);
   }
   state[HAVE_START] = 0.0;
   x[0] = ml_chamber_bounded(&c->law, x[0]);

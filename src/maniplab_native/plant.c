@@ -647,6 +647,10 @@ static void record_row(const ml_plant* p, ml_run* r, double t) {
   if (r->ee_pos && r->ee_body >= 0) {
     memcpy(r->ee_pos + (size_t)row * 3, p->d->xpos + 3 * r->ee_body, 3 * sizeof(double));
   }
+  int ns = (int)p->m->npluginstate;
+  if (r->plugin_state && ns) {
+    memcpy(r->plugin_state + (size_t)row * ns, p->d->plugin_state, ns * sizeof(double));
+  }
 }
 
 static void record_forces(const ml_plant* p, ml_run* r, int row) {

@@ -112,6 +112,8 @@ typedef struct {
   double* limit;           /* (rows, n) */
   int ee_body;             /* a body whose position is recorded (the end-effector), or -1 */
   double* ee_pos;          /* (rows, 3): its position at the step's start (d->xpos) */
+  double* plugin_state;    /* (rows, npluginstate): the plugins' states at the step's start (the
+                              cylinders' energy accumulators among them), or NULL */
 } ml_run;
 
 /* Outcome details after a call returned an error. */

@@ -52,6 +52,7 @@ from maniplab.sim import native
 from maniplab.sim.actuation import Actuation
 from maniplab.sim.budget import check_step
 from maniplab.sim.callbacks import PluginCallbacks, PythonHooks
+from maniplab.sim.energy import EnergyLayout
 from maniplab.sim.errors import InputError, InstabilityError, PluginError
 from maniplab.sim.layout import StateLayout
 from maniplab.sim.plant_model import build_plant_model
@@ -160,6 +161,7 @@ class Plant:
         lugre = [(j, joint.name) for j, joint in enumerate(self.spec.joints)
                  if joint.friction.model is FrictionModel.lugre]
         self.layout = StateLayout(self.model, self.actuators, lugre)
+        self.energy = EnergyLayout(self.model, self.actuators)
         self.state_names = self.layout.names
         self.hold_inertia = HOLD_INERTIA * _largest_inertia(self.model)
         frictions = [j.friction for j in self.spec.joints]

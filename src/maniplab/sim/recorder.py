@@ -45,14 +45,18 @@ class Buffers:
         n: joints.
         na: MuJoCo activations (``model.na``).
         rows: rows of each buffer (``CHUNK // every + 2`` holds one call's).
+        plugin: the engine plugins' states (``model.npluginstate``) when they are recorded (the
+            cylinders' energies), else 0.
     """
 
-    def __init__(self, n: int, na: int, rows: int) -> None:
+    def __init__(self, n: int, na: int, rows: int, plugin: int = 0) -> None:
         self.rows, self.na = rows, na
         self.arrays: dict[str, np.ndarray] = {"t": np.zeros(rows), "q": np.zeros((rows, n)), "qd": np.zeros((rows, n)),
                        "act": np.zeros((rows, max(na, 1))), "ctrl": np.zeros((rows, n)),
                        "mode": np.zeros((rows, n), np.int8), "fric": np.zeros((rows, n)),
                        "limit": np.zeros((rows, n)), "ee_pos": np.zeros((rows, 3))}
+        if plugin:
+            self.arrays["plugin"] = np.zeros((rows, plugin))
 
     @property
     def row_bytes(self) -> int:
@@ -67,12 +71,20 @@ class Buffers:
         run.mode = native.pointer(a["mode"], ctypes.c_byte)
         run.fric, run.limit = native.pointer(a["fric"]), native.pointer(a["limit"])
         run.ee_pos = native.pointer(a["ee_pos"])
+        if "plugin" in a:
+            run.plugin_state = native.pointer(a["plugin"])
 
     def head(self, rows: int) -> dict[str, np.ndarray]:
         """The first ``rows`` rows of every buffer (views: valid until the loop runs on)."""
         out = {k: v[:rows] for k, v in self.arrays.items()}
         out["act"] = out["act"][:, : self.na]
         return out
+
+
+def buffers(plant: Plant, rows: int) -> Buffers:
+    """Buffers of ``rows`` rows for ``plant``'s runs (its plugin states when it has energies)."""
+    plugin = plant.model.npluginstate if plant.energy else 0
+    return Buffers(plant.n, plant.model.na, rows, plugin)
 
 
 def derive(plant: Plant, raw: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -100,13 +112,15 @@ def derive(plant: Plant, raw: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]
     out["tau_limit"] = raw["limit"]
     out["mode"] = raw["mode"]
     out["ee_pos"] = raw["ee_pos"]
+    if p.energy:
+        out.update(p.energy.read(raw["plugin"]))
     return out
 
 
 def layout(plant: Plant) -> Layout:
     """The signals :func:`derive` gives for ``plant``: found by deriving one sample of its
     current state."""
-    one = Buffers(plant.n, plant.model.na, 1)
+    one = buffers(plant, 1)
     a = one.arrays
     state = plant.state()
     a["q"][0], a["qd"][0] = state.q, state.qd
@@ -126,7 +140,7 @@ def overhead(plant: Plant, per_sample: int) -> int:
     chunk's signals and the temporaries that derive them (counted twice), and a chunk's inputs
     (for a sample every step; fewer samples take less)."""
     rows = CHUNK + 2
-    return Buffers(plant.n, plant.model.na, 0).row_bytes * rows + 3 * per_sample * rows + \
+    return buffers(plant, 0).row_bytes * rows + 3 * per_sample * rows + \
         16 * plant.n * (CHUNK + 1)
 
 

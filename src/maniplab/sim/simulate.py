@@ -307,7 +307,8 @@ class _Loop:
                  sink: recorder.Sink) -> None:
         self.plant, self.steps, self.drive, self.sink = plant, steps, drive, sink
         self.t0, self.dt = t0, dt = plant.t, plant.dt
-        self.buffers = recorder.Buffers(plant.n, plant.model.na, self.CHUNK // every + 2)
+        self.buffers = recorder.buffers(plant, self.CHUNK // every + 2)
+        plant.energy.zero(plant.data)
         self.table: np.ndarray | None = None  # the inputs of samples table_k0, table_k0 + 1, ...
         self.table_k0 = 0
         self.held = np.zeros(plant.n)

@@ -25,6 +25,7 @@ import numpy as np
 
 from maniplab.atomic import atomic_path
 from maniplab.errors import ManiplabError, SpecError
+from maniplab.sim.energy import SIGNALS as ENERGY_SIGNALS
 from maniplab.spec import ManipulatorSpec
 
 if TYPE_CHECKING:
@@ -36,7 +37,7 @@ R = TypeVar("R", bound="Run")
 
 #: Signals with one column per joint.
 JOINT_SIGNALS = frozenset({"q", "qd", "tau_act", "tau_fric", "tau_limit", "ctrl", "iv", "dP", "Q",
-                           "mode"})
+                           "mode", *ENERGY_SIGNALS})
 
 
 class RunFileError(ManiplabError):
