@@ -77,10 +77,10 @@ static int one_step(const ml_chambers* c, const double* y0, double u, double s0,
 static void add_powers(const ml_chambers* c, const double* y, double sdot, double supply,
                        double weight, double* energy) {
   ml_chambers law = *c;
-  double powers[ML_ENERGIES];
+  double powers[ML_ACCUMULATED];
   law.supply = supply;
   ml_chambers_powers(&law, y[0], y[1], y[2], sdot, powers);
-  for (int k = 0; k < ML_ENERGIES; k++) energy[k] += weight * powers[k];
+  for (int k = 0; k < ML_ACCUMULATED; k++) energy[k] += weight * powers[k];
 }
 
 int ml_chambers_step_energy(const ml_chambers* c, const double* y0, double u, double s0,

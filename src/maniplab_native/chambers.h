@@ -282,8 +282,9 @@ static inline void ml_chambers_jacobian_law(const ml_chambers* c, double pa, dou
    ml_chambers_bound_energy): what the supply delivered through this section (at the pressure
    its meter-in edge sees), the losses across the meter-in edge's orifice, its compensator, the
    meter-out edge, the piston's leakage, the relief and anti-cavitation valves, the energy the
-   return oil carries into the tank line (Pt Q), the work on the piston ((pA A_A - pB A_B) ds/dt,
-   negative where the load drives it) and the energy put into compressing the oil
+   return oil carries into the tank line (Pt Q), the work on the piston ((pA A_A - pB A_B) ds/dt
+   with the pressures within their bounds, as the mechanics sees them; negative where the load
+   drives it) and the energy put into compressing the oil
    (pA V_A dpA/dt + pB V_B dpB/dt) / E. At each instant
 
      pump = meter_in + compensator + meter_out + leakage + relief + anticavitation + tank + work
@@ -294,8 +295,13 @@ static inline void ml_chambers_jacobian_law(const ml_chambers* c, double pa, dou
 enum { ML_E_PUMP, ML_E_METER_IN, ML_E_COMPENSATOR, ML_E_METER_OUT, ML_E_LEAKAGE, ML_E_RELIEF,
        ML_E_ANTICAVITATION, ML_E_TANK, ML_E_WORK, ML_E_COMPRESSION, ML_ENERGIES };
 
+/* After the energies, the time integral of the supply pressure this section sees (Pa s): a fixed
+   displacement pump delivers Q_max at it, the flow its sections do not take over its relief. */
+#define ML_SUPPLY_TIME ML_ENERGIES
+#define ML_ACCUMULATED (ML_ENERGIES + 1)
+
 /* The powers (W) of the energy terms at one instant (the relief and anti-cavitation valves act
-   at the bounds, ml_chambers_bound_energy): powers[ML_ENERGIES]. */
+   at the bounds, ml_chambers_bound_energy), and the supply pressure: powers[ML_ACCUMULATED]. */
 static inline void ml_chambers_powers(const ml_chambers* c, double pa, double pb, double x,
                                       double sdot, double* powers) {
   double ps = ml_supply_seen(c, pa, pb, x), qa, qb;
@@ -304,14 +310,22 @@ static inline void ml_chambers_powers(const ml_chambers* c, double pa, double pb
   double in = x > 0.0 ? qa : (x < 0.0 ? qb : 0.0), out = x > 0.0 ? -qb : (x < 0.0 ? -qa : 0.0);
   double drop = ps - fed, seen = ml_compensated_drop(c, drop), leak = c->leakage * (pa - pb);
   for (int k = 0; k < ML_ENERGIES; k++) powers[k] = 0.0;
+  powers[ML_SUPPLY_TIME] = ps;
   powers[ML_E_PUMP] = ps * in;
   powers[ML_E_METER_IN] = seen * in;
   powers[ML_E_COMPENSATOR] = (drop - seen) * in;
   powers[ML_E_METER_OUT] = (drained - c->tank) * out;
   powers[ML_E_LEAKAGE] = (pa - pb) * leak;
   powers[ML_E_TANK] = c->tank * out;
-  powers[ML_E_WORK] = (pa * c->area_a - pb * c->area_b) * sdot;
   powers[ML_E_COMPRESSION] = pa * (qa - c->area_a * sdot - leak) + pb * (qb + c->area_b * sdot + leak);
+  /* the piston works against the pressures within their bounds, as the mechanics sees them;
+     where a pressure is beyond a bound within the step, the piston's share above it is the
+     valve's (it flows out through the relief valve, in through the anti-cavitation valve) */
+  double ba = ml_chamber_bounded(c, pa), bb = ml_chamber_bounded(c, pb);
+  double beyond_a = (pa - ba) * c->area_a * sdot, beyond_b = -(pb - bb) * c->area_b * sdot;
+  powers[ML_E_WORK] = (ba * c->area_a - bb * c->area_b) * sdot;
+  powers[pa > ba ? ML_E_RELIEF : ML_E_ANTICAVITATION] += beyond_a;
+  powers[pb > bb ? ML_E_RELIEF : ML_E_ANTICAVITATION] += beyond_b;
 }
 
 /* A chamber's pressure p of volume v brought within its bounds (ml_chamber_bounded), the oil
@@ -347,7 +361,7 @@ int ml_chambers_step(const ml_chambers* c, const double* y0, double u, double s0
                      double s1, double sdot1, double supply1, double h, int substeps,
                      double* y1);
 
-/* ml_chambers_step that also adds the step's energies to energy[ML_ENERGIES] (J): each power
+/* ml_chambers_step that also adds the step's energies to energy[ML_ACCUMULATED] (J): each power
    (ml_chambers_powers) by the trapezoidal rule over each sub-step, every term at the same
    instants, so that their balance closes as it does at each instant. */
 int ml_chambers_step_energy(const ml_chambers* c, const double* y0, double u, double s0,

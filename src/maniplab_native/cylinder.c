@@ -51,13 +51,15 @@ static int g_slot = -1;  /* this plugin's registered slot */
    load-sensing pump the other sections' highest load-sense pressure over the step, the supply
    pressure at the step's end (it goes linearly from START_SUPPLY), and a pump with a response
    time its own pressure (PUMP_P, once PUMP_SET); then the energies since the last reset
-   (chambers.h's ML_E_* terms, J; Python zeroes them when a run starts) */
+   (chambers.h's ML_E_* terms, J, and the supply pressure's integral; Python zeroes them when a
+   run starts) */
 enum { START_TIME, HAVE_START, START_Y, START_S = START_Y + 3, START_SDOT, START_SUPPLY, PRED_Y,
        START_OTHERS = PRED_Y + 3, END_SUPPLY, PUMP_P, PUMP_SET, ENERGY,
-       NSTATE = ENERGY + ML_ENERGIES };
+       NSTATE = ENERGY + ML_ACCUMULATED };
 
 /* Where an instance's energies start in its plugin_state, and how many there are (for the
-   recorder, which reads them from the recorded plugin states). */
+   recorder, which reads them from the recorded plugin states); the supply pressure's time
+   integral follows them. */
 int ml_cylinder_energy_slot(int* count) {
   *count = ML_ENERGIES;
   return ENERGY;

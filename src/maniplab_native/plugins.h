@@ -35,7 +35,8 @@ double ml_control(const mjModel* m, const mjData* d, int actuator);
    outlive the registration. */
 void ml_register_hydraulic(const char* name);
 void ml_register_cylinder(const char* name);
-/* The first of a cylinder instance's energies in its plugin_state; *count: how many (cylinder.c). */
+/* The first of a cylinder instance's energies in its plugin_state, then the supply pressure's
+   time integral; *count: how many energies (cylinder.c). */
 int ml_cylinder_energy_slot(int* count);
 void ml_register_lugre(const char* name);
 

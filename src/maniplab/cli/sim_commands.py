@@ -1,4 +1,4 @@
-"""Commands on runs: simulate, sweep, compare, runs (the table of a folder), crossval."""
+"""Commands on runs: simulate, sweep, compare, energy, runs (the table of a folder), crossval."""
 
 from __future__ import annotations
 
@@ -32,10 +32,11 @@ _INPUT_HELP = ("JOINT=SIGNAL, repeatable: valve current (A) of a hydraulic joint
                "impulse:AREA[,WIDTH][@T0], sine:A,FREQ_HZ[,PHASE][@T0], ramp:SLOPE[,T1][@T0], "
                "constant:V, joined by '+', e.g. q2=step:1.5@0.2 or q1=0.1+sine:0.05,2")
 def add(sub: argparse._SubParsersAction) -> None:
-    """Register simulate, sweep, compare, runs and crossval."""
+    """Register simulate, sweep, compare, energy, runs and crossval."""
     _add_simulate(sub)
     _add_sweep(sub)
     _add_compare(sub)
+    _add_energy(sub)
     _add_runs(sub)
     _add_crossval(sub)
 
@@ -108,6 +109,22 @@ def _add_compare(sub: argparse._SubParsersAction) -> None:
     p.add_argument("-o", "--output", type=output_file, default=Path("out/compare.png"), metavar="FILE",
                    help="figure file, .png, .svg or .pdf (default: out/compare.png)")
     p.set_defaults(func=_cmd_compare)
+
+
+def _add_energy(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("energy", help="where each run's hydraulic energy went, runs compared",
+                       description="For each run: the energy its pump delivered through each "
+                                   "pinned cylinder's valve section and where it went (meter-in, "
+                                   "compensator, meter-out, leakage, relief and anti-cavitation "
+                                   "losses, the tank line, the work on the piston, the oil's "
+                                   "compression), as a table, and a figure comparing the runs.")
+    p.add_argument("runs", metavar="RUN", nargs="+", type=Path, help="run files (.npz)")
+    plugin_option(p)
+    p.add_argument("-o", "--output", type=output_file, default=Path("out/energy.png"),
+                   metavar="FILE", help="figure file, .png, .svg or .pdf (default: out/energy.png)")
+    p.add_argument("--json", type=output_file, metavar="FILE",
+                   help="also write the reports as JSON (J)")
+    p.set_defaults(func=_cmd_energy)
 
 
 def _add_runs(sub: argparse._SubParsersAction) -> None:
@@ -245,6 +262,27 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     print(f"wrote {args.output} ({len(runs)} runs, signals {', '.join(signals)})")
     for path, run in zip(args.runs, runs):
         print(f"{path}: {run.health.summary()}")
+    return 0
+
+
+def _cmd_energy(args: argparse.Namespace) -> int:
+    import json
+
+    from maniplab.atomic import atomic_path
+    from maniplab.sim import Run
+    from maniplab.sim.energy import energy_report
+    from maniplab.viz.energy import energy_figure
+    from maniplab.viz.plots import save_figure
+
+    reports = [energy_report(Run.load(path)) for path in args.runs]
+    for path, report in zip(args.runs, reports):
+        print(f"{path} ({report.label}), kJ:\n{report.table()}\n")
+    save_figure(energy_figure(reports), args.output)
+    print(f"wrote {args.output}")
+    if args.json:
+        with atomic_path(args.json) as tmp:
+            tmp.write_text(json.dumps([r.as_dict() for r in reports], indent=1))
+        print(f"wrote {args.json}")
     return 0
 
 

@@ -14,6 +14,7 @@ import numpy as np
 from maniplab.errors import ManiplabError
 from maniplab.sim import store
 from maniplab.sim.energy import SIGNALS as ENERGY_SIGNALS
+from maniplab.sim.energy import SUPPLY_INTEGRAL
 from maniplab.sim.health import Health, assess
 from maniplab.sim.store import RunFileError
 
@@ -26,7 +27,7 @@ UNITS: dict[str, str] = {
     "tau_act": "N·m | N", "tau_fric": "N·m | N", "dP": "Pa", "Q": "m³/s", "iv": "A",
     "mode": "FrictionMode", "ee_pos": "m", "ctrl": "A | N·m | N",
     "tau_limit": "N·m | N", "z": "rad | m", "pA": "Pa", "pB": "Pa", "spool": "",
-    "stroke": "m", "cylinder_force": "N", **{name: "J" for name in ENERGY_SIGNALS},
+    "stroke": "m", "cylinder_force": "N", **{name: "J" for name in ENERGY_SIGNALS}, SUPPLY_INTEGRAL: "Pa·s",
 }
 
 

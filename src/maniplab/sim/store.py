@@ -26,6 +26,7 @@ import numpy as np
 from maniplab.atomic import atomic_path
 from maniplab.errors import ManiplabError, SpecError
 from maniplab.sim.energy import SIGNALS as ENERGY_SIGNALS
+from maniplab.sim.energy import SUPPLY_INTEGRAL
 from maniplab.spec import ManipulatorSpec
 
 if TYPE_CHECKING:
@@ -37,7 +38,7 @@ R = TypeVar("R", bound="Run")
 
 #: Signals with one column per joint.
 JOINT_SIGNALS = frozenset({"q", "qd", "tau_act", "tau_fric", "tau_limit", "ctrl", "iv", "dP", "Q",
-                           "mode", *ENERGY_SIGNALS})
+                           "mode", *ENERGY_SIGNALS, SUPPLY_INTEGRAL})
 
 
 class RunFileError(ManiplabError):

@@ -46,7 +46,7 @@ import math
 import os
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Annotated, Any, ClassVar
+from typing import Annotated, Any, ClassVar, Literal
 
 import numpy as np
 from pydantic import (
@@ -335,6 +335,10 @@ class Supply:
         response: the time constant of the pump pressure's first-order response to what it
             is asked (the load-sense pressure plus margin, or the setting), s: a swash plate's
             regulator; None: it answers at once. The flow limit always acts at once.
+        displacement: "variable" (it delivers what the sections draw, a pressure-compensated
+            or load-sensing pump) or "fixed" (a gear pump: it always delivers ``max_flow``, the
+            flow the sections do not take goes over its relief valve at ``pressure``). The
+            pressures and motions are the same; the energy differs.
     """
 
     EXAMPLE: ClassVar[str] = "pressure: 8.0e6, max_flow: 1.0e-3"
@@ -343,6 +347,7 @@ class Supply:
     max_flow: Positive
     ls_margin: Positive | None = None
     response: Positive | None = None
+    displacement: Literal["variable", "fixed"] = "variable"
 
 
 def _check_supply(supply: Supply | None, info: ValidationInfo) -> Supply | None:
@@ -354,6 +359,10 @@ def _check_supply(supply: Supply | None, info: ValidationInfo) -> Supply | None:
     if not pinned:
         raise ValueError("no joint has a pinned cylinder (an actuator with a 'cylinder:' "
                          "section) to draw from this supply")
+    if supply.ls_margin is not None and supply.displacement == "fixed":
+        raise ValueError("displacement: fixed with an ls_margin: a load-sensing pump has a "
+                         "variable displacement (a fixed pump with a load-sensing unloading "
+                         "valve is not modelled)")
     if supply.ls_margin is not None and not supply.ls_margin < supply.pressure:
         raise ValueError(f"ls_margin {supply.ls_margin:g} Pa is not below the pump's cut-off "
                          f"pressure {supply.pressure:g} Pa")
