@@ -205,8 +205,20 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
                 for name in ("dP", "pA", "pB") if name in run.signals), default=0.0)
     print(f"wrote {args.output}: {run.spec.name}, {run.t[-1]:g} s simulated in {wall:.2f} s "
           f"({run.t[-1] / wall:.0f}x real time); final q = "
-          f"{np.array2string(run.q[-1], precision=4)}; peak pressure = {peak / 1e6:.3g} MPa")
+          f"{np.array2string(run.q[-1], precision=4)}; peak pressure = {peak / 1e6:.3g} MPa"
+          + _energy_note(run))
     return 0
+
+
+def _energy_note(run: Run) -> str:
+    """"; pump energy ... kJ, losses ... kJ" for a run with pinned cylinders (their energies'
+    first and last samples: cheap for a streamed run too)."""
+    if "E_pump" not in run.signals:
+        return ""
+    from maniplab.sim.energy import energy_report
+
+    report = energy_report(run)
+    return f"; pump energy {report.pump / 1e3:.3g} kJ, losses {report.losses / 1e3:.3g} kJ"
 
 
 def _blocks(run: Run, name: str, streamed: Path | None,

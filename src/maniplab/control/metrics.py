@@ -18,6 +18,7 @@ import numpy as np
 from maniplab.control.kinematics import rotation_log
 from maniplab.control.trajectory import Trajectory
 from maniplab.model import AnalyticModel
+from maniplab.sim.energy import energy_report
 from maniplab.spec import model_of
 
 #: Columns of the table: field -> (header, format).
@@ -32,6 +33,7 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "peak_pressure_MPa": ("peak pressure [MPa]", "{:.2f}"),
     "peak_iv_A": ("peak |i_v| [A]", "{:.3f}"),
     "saturation_s": ("time at saturation [s]", "{:.3f}"),
+    "pump_energy_kJ": ("pump energy [kJ]", "{:.2f}"),
 }
 
 
@@ -56,6 +58,9 @@ class TrackingMetrics:
         peak_pressure_joint: the joint where it occurred, and which pressure ("dP", "pA", "pB").
         joints: per joint: its peak pressure (MPa, and which: "dP" or "pA/pB"; NaN without)
             and its peak |command| in its actuator's unit.
+        pump_energy_kJ, losses_kJ: the energy the pump delivered through the pinned
+            cylinders' valve sections over the run, and how much of it was lost
+            (:mod:`maniplab.sim.energy`), kJ (NaN: no pinned cylinder).
     """
 
     label: str
@@ -72,6 +77,8 @@ class TrackingMetrics:
     peak_pressure_MPa: float = math.nan
     peak_pressure_joint: str = ""
     joints: dict[str, dict[str, Any]] = dataclasses.field(default_factory=dict)
+    pump_energy_kJ: float = math.nan
+    losses_kJ: float = math.nan
 
     def to_dict(self) -> dict[str, Any]:
         """Plain JSON-friendly dict (NaN written as None)."""
@@ -130,8 +137,16 @@ def tracking_metrics(run: Any, trajectory: Trajectory, *, label: str | None = No
         rms_orientation_mrad=rot,
         peak_dP_MPa=peak_dP, peak_dP_joint=joint, peak_iv_A=peak_iv,
         saturation_s=saturation_time(run), window=(t0, t1),
-        **_pressures(run),
+        **_pressures(run), **_energy(run),
     )
+
+
+def _energy(run: Any) -> dict[str, Any]:
+    """The pump's energy and the losses over the run, kJ (none without pinned cylinders)."""
+    if "E_pump" not in getattr(run, "signals", {}):
+        return {}
+    report = energy_report(run)
+    return {"pump_energy_kJ": report.pump / 1e3, "losses_kJ": report.losses / 1e3}
 
 
 def _pressures(run: Any) -> dict[str, Any]:
