@@ -51,7 +51,7 @@ def _row(joint: Joint) -> tuple[str, ...]:
         _vec(body.direction) if body else "-",
         f"{body.mass:g}" if body else "-",
         model_of(joint).describe(),
-        joint.friction.model.value,
+        joint.friction.model.value + (" + rod" if joint.rod_friction is not None else ""),
     )
 
 

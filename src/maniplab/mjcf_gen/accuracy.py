@@ -193,13 +193,20 @@ def _run(model: mujoco.MjModel, h: float, sample: float) -> np.ndarray:
 
 
 def smooth(spec: ManipulatorSpec) -> ManipulatorSpec:
-    """``spec`` without the stick/slip events of its hybrid friction (friction model none):
-    where a joint sticks is an event located to the step, first order in any fixed-step scheme,
-    not a matter of the integration's accuracy. LuGre's smooth bristles stay."""
+    """``spec`` without the stick/slip events of its hybrid friction (friction model none, and
+    no Coulomb or static rod friction): where a joint sticks is an event located to the step,
+    first order in any fixed-step scheme, not a matter of the integration's accuracy. LuGre's
+    smooth bristles and the rods' viscous friction stay."""
     from maniplab.friction.params import FrictionModel
 
-    changes = {f"joints.{joint.name}.friction.model": "none" for joint in spec.joints
-               if joint.friction.model is FrictionModel.hybrid}
+    changes: dict[str, object] = {f"joints.{joint.name}.friction.model": "none"
+                                  for joint in spec.joints
+                                  if joint.friction.model is FrictionModel.hybrid}
+    for joint in spec.joints:
+        rod = joint.rod_friction
+        if rod is not None and rod.sticks:
+            path = f"joints.{joint.name}.actuator.cylinder.friction"
+            changes.update({f"{path}.coulomb": 0.0, f"{path}.static": 0.0})
     return spec.with_overrides(changes) if changes else spec
 
 

@@ -28,6 +28,8 @@ hydraulic.bulk_modulus     1.4e9 Pa (mineral oil); .leakage 0; .valve_tau 0.01 s
                            .current_limit 1.0 (valve_gain is then the flow at full command)
 friction.*                 0 (stribeck_velocity 0.01 m/s or rad/s, stick_velocity 1e-3,
                            sigma0 1e5, sigma1 316.2)
+actuator.cylinder.friction none (a pinned cylinder's rod friction, N on the rod; its fields 0,
+                           stribeck_velocity 0.01 m/s, stick_velocity 1e-3 m/s)
 end_effector               mass 0 kg, offset [0, 0, 0] m, size derived from the mass (visual only)
 control                    none: the controller's defaults (see ControlSpec)
 =========================  ===================================================================
@@ -60,10 +62,11 @@ from pydantic import (
     field_validator,
 )
 
+from maniplab.actuators.hydraulic.params import RodFriction, rod_friction
 from maniplab.actuators.torque import TorqueActuator
 from maniplab.atomic import write_text
 from maniplab.errors import SpecError
-from maniplab.friction.params import Friction
+from maniplab.friction.params import Friction, FrictionModel
 from maniplab.schema import (
     NonNegative,
     Positive,
@@ -256,6 +259,23 @@ class Joint:
         if value is not None and not value[0] < value[1]:
             raise ValueError(f"limits {list(value)} are not increasing; expected [lower, upper]")
         return value
+
+    @field_validator("friction")
+    @classmethod
+    def _not_lugre_with_rod_friction(cls, friction: Friction, info: ValidationInfo) -> Friction:
+        rod = rod_friction(info.data.get("actuator"))
+        if friction.model is FrictionModel.lugre and rod is not None and rod.sticks:
+            raise ValueError("model lugre with rod friction (actuator.cylinder.friction coulomb "
+                             "or static): rod friction uses the hybrid stick/slip automaton; "
+                             "give the joint model hybrid or none, or the rod viscous friction "
+                             "only")
+        return friction
+
+    @property
+    def rod_friction(self) -> RodFriction | None:
+        """Its pinned cylinder's rod friction (``actuator.cylinder.friction``), N on the rod, or
+        None."""
+        return rod_friction(self.actuator)
 
     @property
     def prismatic(self) -> bool:

@@ -79,6 +79,44 @@ class Pins:
 
 
 @validated
+class RodFriction:
+    """A cylinder's seal friction on its rod, in newtons, as datasheets and papers give it.
+
+    It acts on the joint through the cylinder's moment arm r(q) = ds/dq: a rod force F is a
+    joint force F r(q), so its Coulomb and static levels on the joint are Fc |r(q)| and
+    Fs |r(q)|, its Stribeck and stick velocities on the joint vs/|r(q)| and (stick velocity)/|r|,
+    and its viscous coefficient Fv r(q)², all changing with the pose. It uses the hybrid
+    stick/slip automaton whatever the joint's own ``friction`` model (none or hybrid: the
+    joint's friction adds to it; LuGre with rod Coulomb or static friction is refused).
+
+    Attributes:
+        coulomb: Coulomb friction Fc, N.
+        static: stiction above Coulomb Fs, N: the rod breaks away at Fc + Fs.
+        stribeck_velocity: Stribeck velocity vs of the rod, m/s.
+        viscous: viscous coefficient Fv, N·s/m.
+        stick_velocity: a rod decelerating below this speed sticks, m/s.
+    """
+
+    EXAMPLE: ClassVar[str] = "coulomb: 800.0, static: 400.0, viscous: 5000.0"
+
+    coulomb: NonNegative = 0.0
+    static: NonNegative = 0.0
+    stribeck_velocity: Positive = 0.01
+    viscous: NonNegative = 0.0
+    stick_velocity: Positive = 1e-3
+
+    @property
+    def breakaway(self) -> float:
+        """Fc + Fs, N: the largest rod force stiction holds."""
+        return self.coulomb + self.static
+
+    @property
+    def sticks(self) -> bool:
+        """Whether it has stick/slip friction (Fc + Fs > 0), not only a viscous part."""
+        return self.breakaway > 0.0
+
+
+@validated
 class Cylinder:
     """A cylinder's dimensions.
 
@@ -94,6 +132,8 @@ class Cylinder:
         hoses: the hoses to the two chambers (:class:`~.hose.Hoses`), each adding its equivalent
             dead volume (:meth:`dead_volumes_with_hoses`); None: none (or counted in
             ``dead_volumes``).
+        friction: the seals' friction on the rod, in newtons (:class:`RodFriction`), mapped
+            onto the joint through r(q); None: none (the joint's own ``friction`` only).
     """
 
     EXAMPLE: ClassVar[str] = ("pins: {parent: [...], child: [...]}, bore: 0.1, rod: 0.056, "
@@ -107,6 +147,7 @@ class Cylinder:
     dead_volumes: Annotated[tuple[Positive, Positive], BeforeValidator(sequence)]
     double_rod: bool = False
     hoses: Hoses | None = None
+    friction: RodFriction | None = None
 
     @field_validator("rod")
     @classmethod
@@ -288,3 +329,10 @@ class PinnedHydraulicActuator:
         :data:`~.hose.P_ATM`); see :mod:`.hose`."""
         return self.cylinder.dead_volumes_with_hoses(self.bulk_modulus,
                                                      self.supply_pressure + P_ATM)
+
+
+def rod_friction(actuator: object) -> RodFriction | None:
+    """The rod friction of a joint's actuator section (a pinned cylinder's
+    ``cylinder.friction``), or None (none, or not a pinned cylinder)."""
+    cylinder = getattr(actuator, "cylinder", None)
+    return cylinder.friction if isinstance(cylinder, Cylinder) else None

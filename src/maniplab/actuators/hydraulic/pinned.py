@@ -287,7 +287,10 @@ class PinnedCylinder(ActuatorPlugin):
 
     def mount(self, act: mujoco.MjsActuator, mount: Mount) -> None:
         """Sites at the pins and a spatial tendon between them (drawn as thick as the bore),
-        which the actuator acts on."""
+        which the actuator acts on. With rod friction the tendon carries its viscous part as
+        ``damping`` (N·s/m along the rod: MuJoCo applies Fv r(q)² q̇ in every stage, in the plant
+        too) and its Coulomb level as ``frictionloss`` (plain MuJoCo's stand-in, which the plant
+        turns off and replaces with its stick/slip automaton)."""
         name, pins = self.joint.name, self.params.cylinder.pins
         base = mount.parent.add_site(name=name + TENDON_SUFFIX + "_base",
                                      pos=list(mount.origin + np.asarray(pins.parent)))
@@ -300,6 +303,10 @@ class PinnedCylinder(ActuatorPlugin):
         tendon.rgba = list(COLOUR)
         tendon.wrap_site(base.name)
         tendon.wrap_site(rod.name)
+        friction = self.params.cylinder.friction
+        if friction is not None:  # the rod's: MuJoCo maps the tendon's forces through r(q)
+            tendon.damping = [friction.viscous, 0.0, 0.0]
+            tendon.frictionloss = friction.coulomb
         act.trntype = mujoco.mjtTrn.mjTRN_TENDON
         act.target = tendon.name
 
@@ -343,7 +350,23 @@ class PinnedCylinder(ActuatorPlugin):
             sizes += (f"; compensated at {margin / 1e5:.4g} bar: at most "
                       f"{law.gain_a * math.sqrt(margin) * 6e4:.4g} L/min into A, "
                       f"{law.gain_b * math.sqrt(margin) * 6e4:.4g} L/min into B")
-        return [where, sizes, *self._hose_lines()]
+        return [where, sizes, *self._hose_lines(), *self._rod_friction_lines(np.abs(r))]
+
+    def _rod_friction_lines(self, arms: np.ndarray) -> list[str]:
+        """The rod friction in newtons and on the joint over the limits (|r| ``arms``), for
+        :meth:`details` (none without rod friction)."""
+        f = self.params.cylinder.friction
+        if f is None:
+            return []
+        force, damping = ("N", "N·s/m") if self.joint.prismatic else ("N·m", "N·m·s/rad")
+        lo, hi = float(arms.min()), float(arms.max())
+        line = (f"{' ' * len(self.joint.name)}  rod friction: Coulomb {f.coulomb:g} N, static "
+                f"{f.static:g} N, Stribeck {f.stribeck_velocity:g} m/s, viscous {f.viscous:g} "
+                f"N·s/m, stick {f.stick_velocity:g} m/s; on the joint through |r(q)|: Coulomb "
+                f"{f.coulomb * lo:.4g}..{f.coulomb * hi:.4g} {force}, break-away "
+                f"{f.breakaway * lo:.4g}..{f.breakaway * hi:.4g} {force}, viscous "
+                f"{f.viscous * lo**2:.4g}..{f.viscous * hi**2:.4g} {damping}")
+        return [line]
 
     @classmethod
     def drive(cls, actuators: Sequence[ActuatorPlugin], joints: Sequence[int], *, dt: float,
