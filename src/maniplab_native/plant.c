@@ -10,7 +10,12 @@
    that holds the joint is read back as -I qacc (at t, for the decisions) and -I dqvel/h (over the
    step, for the record). Mode changes take effect at step boundaries; events inside a step are
    put on the nearer boundary where the step's start predicts them (a velocity reaching zero or
-   the stick velocity), else on its end. */
+   the stick velocity), else on its end.
+
+   A pinned cylinder's rod friction (newtons on the rod) joins its joint's own through the
+   moment arm r of the joint's actuator (ds/dq, MuJoCo's actuator moment) at each step's start
+   pose: the plant evaluates the position stage first, reads r there, and only then sets the
+   forces and finishes the forward pass (arms without rod friction keep the one mj_forward). */
 #include "plant.h"
 
 #include <math.h>
@@ -28,6 +33,14 @@ struct ml_plant {
   double *lower, *upper, *cmd_limit;
   double *coulomb, *stiction, *stribeck, *stick_velocity, *breakaway, *slip_acc;
   int* can_stick;
+  /* rod friction (plant.h), per joint (n); breakaway, slip_acc and stick_velocity of its joints
+     change with the lever every step */
+  int nrod;
+  int *rods, *has_rod;       /* the joints with rod friction; 1 for each */
+  double *rod_coulomb, *rod_stiction, *rod_stribeck, *rod_viscous, *rod_stick;
+  double *pin_breakaway, *pin_stick; /* the joint's own Fc + Fs (0 without) and stick velocity */
+  double* lever;             /* |r| at the step's start */
+  double* rod_damping;       /* -Fv r^2 v at the prepared step's start (the record's) */
   double* armature;          /* the model's own armature */
   /* joint lists */
   int nslip, nsticky, nlimited;
@@ -73,9 +86,11 @@ void ml_plant_free(ml_plant* p) {
   double* doubles[] = {p->lower, p->upper, p->cmd_limit, p->coulomb, p->stiction, p->stribeck,
                        p->stick_velocity, p->breakaway, p->slip_acc, p->armature, p->bound_value,
                        p->direction, p->u, p->command, p->q0, p->v0, p->act0, p->fric, p->limit, p->q1, p->v1, p->bristles,
-                       p->rq, p->rqd, p->ract, p->ru, p->rfric, p->rlimit};
+                       p->rq, p->rqd, p->ract, p->ru, p->rfric, p->rlimit, p->rod_coulomb,
+                       p->rod_stiction, p->rod_stribeck, p->rod_viscous, p->rod_stick,
+                       p->pin_breakaway, p->pin_stick, p->lever, p->rod_damping};
   int* ints[] = {p->can_stick, p->slip, p->sticky, p->limited, p->bound_adr, p->bound_joint,
-                 p->modes, p->held};
+                 p->modes, p->held, p->rods, p->has_rod};
   for (size_t i = 0; i < sizeof(doubles) / sizeof(doubles[0]); i++) free(doubles[i]);
   for (size_t i = 0; i < sizeof(ints) / sizeof(ints[0]); i++) free(ints[i]);
   free(p->rmode);
@@ -133,7 +148,18 @@ ml_plant* ml_plant_new(mjModel* m, mjData* d, const ml_plant_config* c) {
   p->rfric = copy_or_zero(NULL, n);
   p->rlimit = copy_or_zero(NULL, n);
   p->rmode = (signed char*)calloc(n, 1);
-  if (!p->rmode || !p->rlimit || !p->held || !p->bound_value || !p->bristles) {
+  p->rods = new_ints(n);
+  p->has_rod = new_ints(n);
+  p->rod_coulomb = copy_or_zero(c->rod ? c->rod_coulomb : NULL, n);
+  p->rod_stiction = copy_or_zero(c->rod ? c->rod_stiction : NULL, n);
+  p->rod_stribeck = copy_or_zero(c->rod ? c->rod_stribeck : NULL, n);
+  p->rod_viscous = copy_or_zero(c->rod ? c->rod_viscous : NULL, n);
+  p->rod_stick = copy_or_zero(c->rod ? c->rod_stick_velocity : NULL, n);
+  p->pin_breakaway = copy_or_zero(NULL, n);
+  p->pin_stick = copy_or_zero(c->stick_velocity, n);
+  p->lever = copy_or_zero(NULL, n);
+  p->rod_damping = copy_or_zero(NULL, n);
+  if (!p->rmode || !p->rlimit || !p->held || !p->bound_value || !p->bristles || !p->rod_damping) {
     ml_plant_free(p);
     return NULL;
   }
@@ -142,10 +168,16 @@ ml_plant* ml_plant_new(mjModel* m, mjData* d, const ml_plant_config* c) {
     p->bound_joint[i] = c->bound_joint[i];
   }
   for (int j = 0; j < n; j++) {
+    if (c->rod && c->rod[j] && j < m->nu && m->actuator_outnum[j] == 1) {
+      p->rods[p->nrod++] = j;
+      p->has_rod[j] = 1;
+    }
     if (c->slip[j]) {
       p->slip[p->nslip++] = j;
       p->breakaway[j] = p->coulomb[j] + p->stiction[j];
-      p->can_stick[j] = p->breakaway[j] > 0.0;
+      p->pin_breakaway[j] = p->breakaway[j];
+      p->can_stick[j] = p->breakaway[j] > 0.0
+                        || (p->has_rod[j] && p->rod_coulomb[j] + p->rod_stiction[j] > 0.0);
       if (p->can_stick[j]) p->sticky[p->nsticky++] = j;
     }
     p->slip_acc[j] = p->breakaway[j] / p->hold;
@@ -289,6 +321,32 @@ static double slip_force(double v, double direction, double coulomb, double stic
   return -magnitude * direction;
 }
 
+/* The rod friction's levers |r| at the pose MuJoCo's position stage just evaluated (actuator j's
+   moment on dof j, from the sparse rows of mj_transmission), and what follows from them for each
+   joint with rod friction: its break-away (the joint's own Fc + Fs plus the rod's times |r|),
+   the acceleration that breaks it away, and its stick velocity (the smaller of the joint's own
+   and the rod's sv/|r|, each where that friction can stick). */
+static void levers(ml_plant* p) {
+  const mjModel* m = p->m;
+  const mjData* d = p->d;
+  for (int i = 0; i < p->nrod; i++) {
+    int j = p->rods[i], row = m->actuator_outadr[j];
+    int start = d->moment_rowadr[row], end = start + d->moment_rownnz[row];
+    double r = 0.0;
+    for (int k = start; k < end; k++) {
+      if (d->moment_colind[k] == j) r = d->actuator_moment[k];
+    }
+    double a = fabs(r), rod = a * (p->rod_coulomb[j] + p->rod_stiction[j]);
+    p->lever[j] = a;
+    if (!p->can_stick[j]) continue;
+    p->breakaway[j] = p->pin_breakaway[j] + rod;
+    p->slip_acc[j] = p->breakaway[j] / p->hold;
+    double sv = p->pin_breakaway[j] > 0.0 ? p->pin_stick[j] : INFINITY;
+    if (rod > 0.0) sv = fmin(sv, p->rod_stick[j] / a);
+    p->stick_velocity[j] = sv < INFINITY ? sv : p->pin_stick[j];
+  }
+}
+
 /* Whether a slipping joint sticks after a step from v0 to v1: its velocity changed sign, or fell
    below the stick velocity while decelerating. */
 static int sticks(double v0, double v1, double stick_velocity) {
@@ -313,6 +371,11 @@ static void set_forces(ml_plant* p) {
       v = mid * v > 0.0 ? mid : 0.5 * v;
     }
     p->fric[j] = slip_force(v, p->direction[j], p->coulomb[j], p->stiction[j], p->stribeck[j]);
+    if (p->has_rod[j]) { /* the rod's, at the rod's speed v|r|, times |r| */
+      double a = p->lever[j];
+      p->fric[j] += slip_force(v * a, p->direction[j], a * p->rod_coulomb[j],
+                               a * p->rod_stiction[j], p->rod_stribeck[j]);
+    }
   }
   memcpy(p->d->qfrc_applied, p->fric, p->n * sizeof(double));
 }
@@ -471,11 +534,22 @@ static void start(ml_plant* p) {
   memcpy(p->act0, d->act, m->na * sizeof(double));
   memcpy(d->ctrl, p->u, n * sizeof(double));
   for (int i = n; i < m->nu; i++) d->ctrl[i] = 0.0;
-  set_forces(p);
-  hold(p);
   if (p->python_actuator) ml_mjcb_install(); /* in case someone replaced it meanwhile */
   p->bad_kind = -1; /* q and q̇ were checked at the last step's end (check), or set from Python */
-  mj_forward(m, d);
+  if (p->nrod) {
+    /* mj_forward in two: the position stage gives the levers at this pose, then the forces */
+    hold(p);
+    mj_fwdPosition(m, d);
+    if (m->nsensor) mj_sensorPos(m, d);
+    if (m->opt.enableflags & mjENBL_ENERGY) mj_energyPos(m, d);
+    levers(p);
+    set_forces(p);
+    mj_forwardSkip(m, d, mjSTAGE_POS, 0);
+  } else {
+    set_forces(p);
+    hold(p);
+    mj_forward(m, d);
+  }
   if (p->nsticky || p->nlimited) settle(p);
   if (m->nu > n) friction_actuators(p);
   note_bad(p, mjWARN_BADQACC, d->qacc, m->nv);
@@ -568,6 +642,7 @@ static int finish(ml_plant* p) {
   integrate(p->m, p->d, p->integrator);
   events(p);
   for (int j = 0; j < p->n; j++) p->rfric[j] = p->fric[j] + p->bristles[j];
+  for (int i = 0; i < p->nrod; i++) p->rfric[p->rods[i]] += p->rod_damping[p->rods[i]];
   memcpy(p->rlimit, p->limit, p->n * sizeof(double));
   return check(p);
 }
@@ -586,6 +661,10 @@ static int prepare(ml_plant* p, const double* u) {
   }
   clip(p, u);
   start(p);
+  for (int i = 0; i < p->nrod; i++) { /* the rod's viscous force at the step's start (MuJoCo's) */
+    int j = p->rods[i];
+    p->rod_damping[j] = -p->rod_viscous[j] * p->lever[j] * p->lever[j] * p->v0[j];
+  }
   memcpy(p->rq, p->q0, n * sizeof(double));
   memcpy(p->rqd, p->v0, n * sizeof(double));
   memcpy(p->ract, p->act0, p->m->na * sizeof(double));

@@ -71,6 +71,17 @@ typedef struct {
   const int* bound_adr;
   const double* bound_value;
   const int* bound_joint;
+  /* A pinned cylinder's rod friction, in newtons on the rod (NULL: no joint has any). It acts
+     on joint j through the moment arm r of actuator j (MuJoCo's actuator moment ds/dq, taken
+     exactly at each step's start pose): Coulomb Fc|r| and stiction Fs|r| added to the joint's
+     own (slip must be 1 when Fc + Fs > 0), Stribeck and stick velocities vs/|r| and sv/|r|;
+     the viscous part Fv r^2 is MuJoCo's (the tendon's damping), here for the record only. */
+  const int* rod;          /* 1: joint j has rod friction */
+  const double* rod_coulomb;   /* Fc, N */
+  const double* rod_stiction;  /* Fs (above Coulomb), N */
+  const double* rod_stribeck;  /* vs, m/s */
+  const double* rod_viscous;   /* Fv, N s/m */
+  const double* rod_stick_velocity; /* m/s */
 } ml_plant_config;
 
 typedef struct ml_plant ml_plant;
@@ -108,7 +119,9 @@ typedef struct {
   signed char* mode;       /* (rows, n) */
   double* fric;            /* (rows, n): the slipping joints' applied friction, stiction's holding
                               force (the step's average), the friction actuators' (LuGre's bristles,
-                              the actuators after the first n) at the step's start; not viscous */
+                              the actuators after the first n) at the step's start; not the joints'
+                              viscous friction (the rod friction's viscous part at the step's start
+                              is included: it changes with the pose) */
   double* limit;           /* (rows, n) */
   int ee_body;             /* a body whose position is recorded (the end-effector), or -1 */
   double* ee_pos;          /* (rows, 3): its position at the step's start (d->xpos) */

@@ -196,9 +196,10 @@ def config_header(plant: Plant, params: list[Parameter], table: list[Variable],
         _c_array("int", "kVarIndex", [v.index for v in table], str),
     ]
     for field in ("lower", "upper", "command_limit", "coulomb", "stiction", "stribeck",
-                  "stick_velocity", "bound_value"):
+                  "stick_velocity", "bound_value", "rod_coulomb", "rod_stiction", "rod_stribeck",
+                  "rod_viscous", "rod_stick_velocity"):
         lines.append(_c_array("double", _c_name(field), c[field], _c_double))
-    for field in ("slip", "bound_adr", "bound_joint"):
+    for field in ("slip", "bound_adr", "bound_joint", "rod"):
         lines.append(_c_array("int", _c_name(field), c[field], str))
     return "\n".join(lines) + "\n"
 

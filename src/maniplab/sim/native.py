@@ -40,6 +40,8 @@ class Config(ctypes.Structure):
         ("lower", _D), ("upper", _D), ("command_limit", _D), ("slip", _I),
         ("coulomb", _D), ("stiction", _D), ("stribeck", _D), ("stick_velocity", _D),
         ("nbounds", c_int), ("bound_adr", _I), ("bound_value", _D), ("bound_joint", _I),
+        ("rod", _I), ("rod_coulomb", _D), ("rod_stiction", _D), ("rod_stribeck", _D),
+        ("rod_viscous", _D), ("rod_stick_velocity", _D),
     ]
 
 

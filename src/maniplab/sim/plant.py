@@ -177,20 +177,35 @@ class Plant:
     def native_config(self) -> dict[str, list[Any]]:
         """The C plant's per-joint settings (``ml_plant_config``'s arrays, by field name): joint
         limits (±inf: none), command limits, friction (slip flags, Coulomb, stiction, Stribeck
-        and stick velocities) and the actuator states' bounds (activation address, bound,
-        joint). The FMU export writes the same into its C code."""
+        and stick velocities), the actuator states' bounds (activation address, bound, joint)
+        and the pinned cylinders' rod friction in newtons (flags, Coulomb, stiction, Stribeck,
+        viscous and stick velocities; 0 without). A joint slips with the hybrid automaton when
+        its own model is hybrid or its rod has Coulomb or static friction (its own friction is
+        then 0 unless hybrid). The FMU export writes the same into its C code."""
         joints, act = self.spec.joints, self._actuation
+        rods = [j.rod_friction for j in joints]
+        own = [j.friction.model is FrictionModel.hybrid or r is None or not r.sticks
+               for j, r in zip(joints, rods)]  # whether the joint's own values count
+
+        def rod(field: str) -> list[float]:
+            return [0.0 if r is None else float(getattr(r, field)) for r in rods]
+
         return {
             "lower": list(self._lower), "upper": list(self._upper),
             "command_limit": list(act.limit),
-            "slip": [int(j.friction.model is FrictionModel.hybrid) for j in joints],
-            "coulomb": [j.friction.coulomb for j in joints],
-            "stiction": [j.friction.static for j in joints],
+            "slip": [int(j.friction.model is FrictionModel.hybrid or (r is not None and r.sticks))
+                     for j, r in zip(joints, rods)],
+            "coulomb": [j.friction.coulomb if o else 0.0 for j, o in zip(joints, own)],
+            "stiction": [j.friction.static if o else 0.0 for j, o in zip(joints, own)],
             "stribeck": [j.friction.stribeck_velocity for j in joints],
             "stick_velocity": [j.friction.stick_velocity for j in joints],
             "bound_adr": [i for _, i, _ in act.bounds],
             "bound_value": [b for _, _, b in act.bounds],
             "bound_joint": [j for j, _, _ in act.bounds],
+            "rod": [int(r is not None and (r.sticks or r.viscous > 0.0)) for r in rods],
+            "rod_coulomb": rod("coulomb"), "rod_stiction": rod("static"),
+            "rod_stribeck": rod("stribeck_velocity"), "rod_viscous": rod("viscous"),
+            "rod_stick_velocity": rod("stick_velocity"),
         }
 
     @property
@@ -482,7 +497,7 @@ def _motion_problem(warning: int) -> str:
     return f"a NaN, infinite or huge value (> 1e10) in {names.get(warning, 'QVEL')}"
 
 
-_INT_FIELDS = ("slip", "bound_adr", "bound_joint")
+_INT_FIELDS = ("slip", "bound_adr", "bound_joint", "rod")
 
 
 class _CPlant:

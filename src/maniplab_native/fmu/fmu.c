@@ -205,7 +205,9 @@ static fmi2Status build(Instance* in) {
   }
   ml_plant_config c = {ML_FMU_N, ML_FMU_SUBSTEPS, HOLD_INERTIA * largest_inertia(in->m),
                        kLower, kUpper, kCommandLimit, kSlip, kCoulomb, kStiction, kStribeck,
-                       kStickVelocity, ML_FMU_NBOUND, kBoundAdr, kBoundValue, kBoundJoint};
+                       kStickVelocity, ML_FMU_NBOUND, kBoundAdr, kBoundValue, kBoundJoint,
+                       kRod, kRodCoulomb, kRodStiction, kRodStribeck, kRodViscous,
+                       kRodStickVelocity};
   in->plant = ml_plant_new(in->m, in->d, &c);
   if (in->plant == NULL) {
     drop_model(in);
