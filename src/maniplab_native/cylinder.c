@@ -34,6 +34,7 @@
 #include "plugins.h"
 
 #define PLUGIN "maniplab.cylinder"
+#define ML_MAX_PUMPED 64 /* the most reversing sections a pump's step is split at */
 
 typedef struct {
   int actuator;
@@ -50,11 +51,13 @@ static int g_slot = -1;  /* this plugin's registered slot */
    whether it is recorded, the states predicted for the step's end (a shared pump's), on a
    load-sensing pump the other sections' highest load-sense pressure over the step, the supply
    pressure at the step's end (it goes linearly from START_SUPPLY), and a pump with a response
-   time its own pressure (PUMP_P, once PUMP_SET); then the energies since the last reset
+   time its own pressure (PUMP_P, once PUMP_SET), whether the pump's step is still to be taken
+   (PUMP_DUE: set at the step's start, cleared by the first cylinder's `advance` for all on the
+   pump); then the energies since the last reset
    (chambers.h's ML_E_* terms, J, and the supply pressure's integral; Python zeroes them when a
    run starts) */
 enum { START_TIME, HAVE_START, START_Y, START_S = START_Y + 3, START_SDOT, START_SUPPLY, PRED_Y,
-       START_OTHERS = PRED_Y + 3, END_SUPPLY, PUMP_P, PUMP_SET, ENERGY,
+       START_OTHERS = PRED_Y + 3, END_SUPPLY, PUMP_P, PUMP_SET, PUMP_DUE, ENERGY,
        NSTATE = ENERGY + ML_ACCUMULATED };
 
 /* Where an instance's energies start in its plugin_state, and how many there are (for the
@@ -213,14 +216,13 @@ static double length_rate(const mjModel* m, const mjData* d, const Cylinder* c) 
   return rate;
 }
 
-/* Which states a cylinder's valve draws with: d->act's (CURRENT), those predicted for the
-   step's end (PREDICTED) or those of the step's start (STARTED), plugin_state's. */
-enum { CURRENT, PREDICTED, STARTED };
+/* Which states a cylinder's valve draws with: d->act's (CURRENT) or those predicted for the
+   step's end (PREDICTED, plugin_state's). */
+enum { CURRENT, PREDICTED };
 
 static const double* drawing_states(const mjModel* m, const mjData* d, int i, const Cylinder* c,
                                     int which) {
   if (which == PREDICTED) return d->plugin_state + m->plugin_stateadr[i] + PRED_Y;
-  if (which == STARTED) return d->plugin_state + m->plugin_stateadr[i] + START_Y;
   return d->act + m->actuator_actadr[c->actuator];
 }
 
@@ -263,6 +265,74 @@ static double pump_target(const mjModel* m, const mjData* d, const Cylinder* c, 
     high = sensed < high ? sensed : high;
   }
   return high;
+}
+
+/* The time within a step of h (s) at which a section's spool, lagging from x0 towards its
+   command's opening, passes 0 (it reverses), or h when it does not within the step. */
+static double spool_crossing(const Cylinder* c, double x0, double u, double h) {
+  double target = ml_spool_target(&c->law, u);
+  if (x0 == 0.0 || target == 0.0 || (x0 > 0.0) == (target > 0.0)) return h;
+  double t = log(1.0 - x0 / target) / c->law.inv_tau;
+  return t < h ? t : h;
+}
+
+/* A load-sensing pump's target at the share w (0..1) of the step, the sections' pressures going
+   linearly from the step's start to their predicted end and each spool on the side it is at the
+   time `side` within the step (s; its exact lag): the highest sensed plus the margin, at most
+   the setting. */
+static double target_within(const mjModel* m, const mjData* d, const Cylinder* any, double w,
+                            double side) {
+  double highest = any->law.tank;
+  for (int i = 0; i < m->nplugin; i++) {
+    const Cylinder* c = (const Cylinder*)d->plugin_data[i];
+    if (m->plugin[i] != g_slot || c == NULL || c->pump_flow <= 0.0) continue;
+    const double* y0 = d->plugin_state + m->plugin_stateadr[i] + START_Y;
+    const double* y1 = d->plugin_state + m->plugin_stateadr[i] + PRED_Y;
+    double goal = ml_spool_target(&c->law, ml_control(m, d, c->actuator));
+    double way = goal + (y0[2] - goal) * exp(-side * c->law.inv_tau);
+    if (y0[2] == 0.0) way = goal;  /* opening from 0: the side it opens to at once */
+    int k = way > 0.0 ? 0 : (way < 0.0 ? 1 : -1);
+    double sensed = k < 0 ? any->law.tank : y0[k] + w * (y1[k] - y0[k]);
+    highest = sensed > highest ? sensed : highest;
+  }
+  double high = highest + any->ls_margin;
+  return high < any->law.supply ? high : any->law.supply;
+}
+
+/* A pump with a response time relaxed over the step from `pump` (Pa) exactly towards its target,
+   taken linear between the instants where a section's spool reverses (its load-sense pressure
+   jumps from one side's chamber to the other's there): the step split at those instants, each
+   piece relaxed towards the mean of its ends' targets. Without a load-sensing margin the target
+   is the setting. */
+static double relax_pump(const mjModel* m, const mjData* d, const Cylinder* any, double pump) {
+  double h = m->opt.timestep, tau = any->pump_tau;
+  if (any->ls_margin <= 0.0) return any->law.supply + (pump - any->law.supply) * exp(-h / tau);
+  double cuts[ML_MAX_PUMPED + 2];
+  int count = 0;
+  cuts[count++] = 0.0;
+  for (int i = 0; i < m->nplugin && count < ML_MAX_PUMPED + 1; i++) {
+    const Cylinder* c = (const Cylinder*)d->plugin_data[i];
+    if (m->plugin[i] != g_slot || c == NULL || c->pump_flow <= 0.0) continue;
+    double x0 = d->plugin_state[m->plugin_stateadr[i] + START_Y + 2];
+    double t = spool_crossing(c, x0, ml_control(m, d, c->actuator), h);
+    if (t > 0.0 && t < h) cuts[count++] = t;
+  }
+  cuts[count++] = h;
+  for (int a = 1; a < count; a++) { /* sort the few cuts (insertion) */
+    for (int b = a; b > 0 && cuts[b] < cuts[b - 1]; b--) {
+      double swap = cuts[b];
+      cuts[b] = cuts[b - 1];
+      cuts[b - 1] = swap;
+    }
+  }
+  for (int k = 0; k + 1 < count; k++) {
+    double t0 = cuts[k], t1 = cuts[k + 1], side = 0.5 * (t0 + t1);
+    if (t1 <= t0) continue;
+    double target = 0.5 * (target_within(m, d, any, t0 / h, side) +
+                           target_within(m, d, any, t1 / h, side));
+    pump = target + (pump - target) * exp(-(t1 - t0) / tau);
+  }
+  return pump;
 }
 
 /* The supply pressure when the pump offers `offered`: that, or lower where the valves would draw
@@ -332,6 +402,7 @@ static void act_dot(const mjModel* m, mjData* d, int instance) {
     state[START_S] = s;
     state[START_SDOT] = sdot;
     state[START_SUPPLY] = law.supply;
+    state[PUMP_DUE] = c->pump_flow > 0.0;
     if (c->pump_flow > 0.0 && c->ls_margin > 0.0) {
       state[START_OTHERS] = sensed_max(m, d, instance, c->law.tank, CURRENT);
     }
@@ -339,17 +410,6 @@ static void act_dot(const mjModel* m, mjData* d, int instance) {
   law = step_law(c, state);
   ml_chambers_rates_law(&law, y[0], y[1], y[2], ml_control(m, d, c->actuator), s, sdot,
                         d->act_dot + adr);
-}
-
-/* Whether `instance` is the first cylinder on the shared pump with a recorded step start. */
-static int first_on_pump(const mjModel* m, const mjData* d, int instance) {
-  for (int i = 0; i < m->nplugin; i++) {
-    const Cylinder* c = (const Cylinder*)d->plugin_data[i];
-    if (m->plugin[i] != g_slot || c == NULL || c->pump_flow <= 0.0) continue;
-    if (!d->plugin_state[m->plugin_stateadr[i] + HAVE_START]) continue;
-    return i == instance;
-  }
-  return 0;
 }
 
 /* A shared pump's pressure over the step, second order: every cylinder on it predicted to the
@@ -377,8 +437,7 @@ static void pump_over_step(const mjModel* m, mjData* d) {
   }
   if (any == NULL) return;
   if (any->pump_tau > 0.0) {
-    double target = 0.5 * (pump_target(m, d, any, STARTED) + pump_target(m, d, any, PREDICTED));
-    pump = target + (pump - target) * exp(-h / any->pump_tau);
+    pump = relax_pump(m, d, any, pump);
     end = pump_pressure(m, d, any, pump, PREDICTED);
   } else {
     start = end = 0.5 * (start + pump_pressure(m, d, any, pump_target(m, d, any, PREDICTED),
@@ -392,6 +451,7 @@ static void pump_over_step(const mjModel* m, mjData* d) {
     state[END_SUPPLY] = end;
     state[PUMP_P] = pump;
     state[PUMP_SET] = 1.0;
+    state[PUMP_DUE] = 0.0;
     if (c->ls_margin > 0.0) { /* the others' load-sense pressure: the mean of start and end */
       double sensed = sensed_max(m, d, i, c->law.tank, PREDICTED);
       state[START_OTHERS] = 0.5 * (state[START_OTHERS] + sensed);
@@ -406,7 +466,7 @@ static void advance(const mjModel* m, mjData* d, int instance) {
   double h = m->opt.timestep;
   double since = d->time - state[START_TIME];  /* MuJoCo has advanced the time by h */
   if (state[HAVE_START] && fabs(since - h) <= 1e-9 * (h + fabs(d->time))) {
-    if (c->pump_flow > 0.0 && first_on_pump(m, d, instance)) pump_over_step(m, d);
+    if (c->pump_flow > 0.0 && state[PUMP_DUE]) pump_over_step(m, d);
     ml_chambers law = step_law(c, state);
     double s0 = state[START_S], sdot0 = state[START_SDOT], sdot1 = length_rate(m, d, c);
     double s1 = s0 + 0.5 * h * (sdot0 + sdot1), va, vb;
