@@ -247,7 +247,8 @@ def python_module(spec: ManipulatorSpec) -> str:
            "inverse_dynamics(q, qd, qdd) = M qdd + C qd + G (add FV * qd for viscous friction);",
            "fk(q) 4x4 end-effector pose; jacobian(q) (6, N) [linear; angular], base frame.",
            "cylinder_length(q), moment_arm(q) (N,): each pinned cylinder's pin-to-pin length s",
-           "and r = ds/dq (NaN at joints without one); the joint force is (pA A_A - pB A_B) r.",
+           "and r = ds/dq (NaN at joints without one); the joint force is (pA A_A - pB A_B) r;",
+           "rod_friction(q, qd) (N,): a slipping cylinder's rod friction on its joint (0 without).",
            '"""', "", "from math import cos, sin, sqrt  # noqa: F401", "", "import numpy as np", "",
            f"N = {n}", f"JOINTS = {spec.joint_names!r}",
            f"FV = np.array({[j.friction.viscous for j in spec.joints]!r})  # viscous friction",
@@ -287,7 +288,9 @@ def c_file(spec: ManipulatorSpec) -> str:
            f" *   void {prefix}_cylinder_length(const double *q, double *out);  out: (N,)",
            f" *   void {prefix}_moment_arm(const double *q, double *out);  out: (N,)",
            " * each pinned cylinder's pin-to-pin length s and r = ds/dq (NAN at joints without one);",
-           " * the joint force is (pA A_A - pB A_B) r.", " */",
+           " * the joint force is (pA A_A - pB A_B) r.",
+           f" *   void {prefix}_rod_friction(const double *q, const double *qd, double *out);  out: (N,)",
+           " * a slipping cylinder's rod friction on its joint (0 at joints without).", " */",
            "#include <math.h>", "", f"#define {prefix.upper()}_N {n}", "",
            f"const double {prefix}_fv[{n}] = {{{', '.join(repr(j.friction.viscous) for j in spec.joints)}}};",
            f"static const double P[{len(values)}] = {{\n{params}\n}};", ""]
@@ -303,7 +306,10 @@ def c_file(spec: ManipulatorSpec) -> str:
 # --- the pinned cylinders' terms -----------------------------------------------------------------
 
 CYLINDER_INTRO = ("Each pinned cylinder's pin-to-pin length s(q) and moment arm r(q) = ds/dq, in "
-                  "closed form; its joint force is (p_A A_A - p_B A_B) r(q).")
+                  "closed form; its joint force is (p_A A_A - p_B A_B) r(q). A cylinder with rod "
+                  "friction (newtons on the rod: Coulomb, static above it, Stribeck at the rod's "
+                  "speed r q̇, viscous) puts the friction force τ_f on its joint while it slips "
+                  "(the plant adds the joint's own friction and sticks it when it stops).")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -313,6 +319,7 @@ class CylinderTerms:
     Attributes:
         joint: its joint's index.  name: the joint's name.  prismatic: a sliding joint.
         constants: (K, ρ, φ) or (w², b, 0).  areas: (A_A, A_B), m².
+        rod: its rod friction (Fc N, Fs N, vs m/s, Fv N·s/m), or None.
     """
 
     joint: int
@@ -320,6 +327,7 @@ class CylinderTerms:
     prismatic: bool
     constants: tuple[float, float, float]
     areas: tuple[float, float]
+    rod: tuple[float, float, float, float] | None = None
 
     def latex(self) -> list[str]:
         """s², r and the force as LaTeX equations."""
@@ -333,7 +341,14 @@ class CylinderTerms:
             arm = f"r_{{{self.joint + 1}}} = {b!r} \\sin({q} - {c!r}) / {s}"
         force = (f"\\tau_{{{self.joint + 1}}} = (p_A \\cdot {self.areas[0]!r} - p_B \\cdot "
                  f"{self.areas[1]!r})\\, r_{{{self.joint + 1}}}")
-        return [square, arm, force]
+        if self.rod is None:
+            return [square, arm, force]
+        fc, fs, vs, fv = self.rod
+        r, qd = f"r_{{{self.joint + 1}}}", f"\\dot q_{{{self.joint + 1}}}"
+        friction = (f"\\tau_{{f,{self.joint + 1}}} = -\\left({fc!r} + {fs!r}\\, "
+                    f"e^{{-({r} {qd} / {vs!r})^2}}\\right) |{r}|\\, \\mathrm{{sign}}({qd}) - "
+                    f"{fv!r}\\, {r}^2 {qd}")
+        return [square, arm, force, friction]
 
 
 def cylinder_terms(spec: ManipulatorSpec) -> list[CylinderTerms]:
@@ -343,8 +358,10 @@ def cylinder_terms(spec: ManipulatorSpec) -> list[CylinderTerms]:
         actuator = model_of(joint)
         if isinstance(actuator, PinnedCylinder):
             c = actuator.params.cylinder
+            f = c.friction
+            rod = None if f is None else (f.coulomb, f.static, f.stribeck_velocity, f.viscous)
             out.append(CylinderTerms(j, joint.name, joint.prismatic, actuator.geometry.constants,
-                                     (c.cap_area, c.rod_area)))
+                                     (c.cap_area, c.rod_area), rod))
     return out
 
 
@@ -364,6 +381,18 @@ def _python_cylinders(spec: ManipulatorSpec) -> list[str]:
             "    s, out = cylinder_length(q), np.full(N, np.nan)",
             "    for j, prismatic, (a, b, c) in CYLINDERS:",
             "        out[j] = (q[j] + b) / s[j] if prismatic else b * sin(q[j] - c) / s[j]",
+            "    return out", "", "",
+            "ROD_FRICTION = (  # joint, Fc N, Fs N, vs m/s, Fv N.s/m", *(
+                f"    ({c.joint}, {c.rod[0]!r}, {c.rod[1]!r}, {c.rod[2]!r}, {c.rod[3]!r}),  # {c.name}"
+                for c in cylinder_terms(spec) if c.rod is not None), ")", "", "",
+            "def rod_friction(q, qd):",
+            '    """Each pinned cylinder\'s rod friction on its joint while it slips, (N,) (0 elsewhere):',
+            "    -(Fc + Fs exp(-(r qd / vs)^2)) |r| sign(qd) - Fv r^2 qd, r = moment_arm(q).\"\"\"",
+            "    r, out = moment_arm(q), np.zeros(N)",
+            "    for j, fc, fs, vs, fv in ROD_FRICTION:",
+            "        v = r[j] * qd[j]",
+            "        out[j] = (-(fc + fs * np.exp(-((v / vs) ** 2))) * abs(r[j]) * np.sign(qd[j])",
+            "                  - fv * r[j] * v)",
             "    return out", ""]
 
 
@@ -377,11 +406,20 @@ def _c_cylinders(spec: ManipulatorSpec, prefix: str) -> list[str]:
         length.append(f"    out[{j}] = {s};")
         arm.append(f"    out[{j}] = " + (f"(q[{j}] + {b!r}) / {s};" if c.prismatic
                                         else f"{b!r} * sin(q[{j}] - {k!r}) / {s};"))
+    friction = []
+    for c in cylinders:
+        if c.rod is not None:
+            j, (fc, fs, vs, fv) = c.joint, c.rod
+            friction += [f"    v = r[{j}] * qd[{j}];",
+                         (f"    out[{j}] = -({fc!r} + {fs!r} * exp(-(v / {vs!r}) * (v / {vs!r}))) * "
+                          f"fabs(r[{j}]) * ((qd[{j}] > 0.0) - (qd[{j}] < 0.0)) - {fv!r} * r[{j}] * v;")]
     n = spec.n
     blank = f"    for (int i = 0; i < {n}; i++) out[i] = NAN;"
     return [f"void {prefix}_cylinder_length(const double *q, double *out)", "{", blank, *length,
             "}", "", f"void {prefix}_moment_arm(const double *q, double *out)", "{", blank, *arm,
-            "}", ""]
+            "}", "", f"void {prefix}_rod_friction(const double *q, const double *qd, double *out)",
+            "{", f"    double r[{n}], v = 0.0;", f"    {prefix}_moment_arm(q, r);",
+            f"    for (int i = 0; i < {n}; i++) out[i] = 0.0;", *friction, "    (void)v;", "}", ""]
 
 
 __all__ = ["DEFAULT_SYMBOLIC", "FORMATS", "SUFFIXES", "c_file", "cylinder_terms", "export_model",
