@@ -83,8 +83,9 @@ class StepRecord:
         u: the clipped commands of the step, (n,).
         mode: the joints' modes over the step (``FrictionMode`` values), (n,).
         fric: the friction force applied over the last advanced step (stiction's holding force
-            and LuGre's bristle force at the step's start included, viscous part excluded), N or
-            N·m, (n,).
+            and LuGre's bristle force at the step's start included, the joint's viscous part
+            excluded; a pinned cylinder's rod friction included, its viscous part at the step's
+            start), N or N·m, (n,).
         limit: the limit stops' force over the last advanced step, N or N·m, (n,).
     """
 
@@ -434,8 +435,8 @@ class Plant:
     @property
     def tau_fric(self) -> np.ndarray:
         """Friction force on each joint over the last step (stiction's holding force when stuck,
-        LuGre's bristle force and the viscous part at the step's start included), N or N·m,
-        (n,)."""
+        LuGre's bristle force and the viscous part at the step's start included, and a pinned
+        cylinder's rod friction through r(q)), N or N·m, (n,)."""
         r = self.record
         return np.array(r.fric) - self.viscous * np.array(r.qd)
 
