@@ -24,7 +24,7 @@ from test_fmu import check_against_simulate, fmpy_python  # noqa: F401 (a fixtur
 
 import maniplab as ml
 from maniplab.friction import FrictionMode
-from maniplab.gui.configure import lookup, text_of
+from maniplab.gui.configure import joint_table, lookup, text_of
 from maniplab.identification import identify
 from maniplab.identification.parameters import parse_parameters
 from maniplab.model.export import c_file, cylinder_terms, python_module
@@ -290,6 +290,7 @@ def test_rod_friction_reaches_the_mjcf_info_gui_and_the_parameter_paths(
     assert "rod friction: Coulomb 2000 N, static 800 N" in info
     joint = spec.to_dict()["joints"][1]
     assert "friction:\n  coulomb: 2000.0" in text_of(lookup(joint, "actuator.cylinder"))
+    assert "<td>100/45/150 + rod 2000/800/2e+04 N</td>" in joint_table(spec)
     # --set (one override), a sweep's variants, identify's parameters
     path = f"{LIFT}.friction.coulomb"
     code, out, err = run_cli(capsys, "simulate", "patu655", "--set", f"{path}=2000",

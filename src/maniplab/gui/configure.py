@@ -341,7 +341,7 @@ def home(spec: ManipulatorSpec) -> np.ndarray:
 def joint_table(spec: ManipulatorSpec) -> str:
     """The joints as an HTML table in the paper's vocabulary."""
     head = ("joint", "R/Tr", "axis", "length m", "unit vector", "mass kg", "COG m",
-            "inertia kg·m²", "limits", "actuator", "friction Fc/Fs/Fv")
+            "inertia kg·m²", "limits", "actuator", "friction Fc/Fs/Fv")  # + a cylinder's rod
     rows = []
     for joint in spec.joints:
         body = joint.body
@@ -350,8 +350,7 @@ def joint_table(spec: ManipulatorSpec) -> str:
                  _g(body.mass) if body else "0", _v(body.com) if body and body.com else "–",
                  _v(body.inertia[:3]) if body and body.inertia else "–",
                  _v(joint.limits) if joint.limits else "none", _actuator(joint),
-                 "/".join(_g(x) for x in (joint.friction.coulomb, joint.friction.static,
-                                          joint.friction.viscous)))
+                 _friction(joint))
         rows.append("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in cells) + "</tr>")
     style = ("<style>.ml-joints{border-collapse:collapse;font-size:11px}"
              ".ml-joints td,.ml-joints th{border:1px solid #ccc;padding:1px 3px;font-size:10px}</style>")
@@ -360,6 +359,15 @@ def joint_table(spec: ManipulatorSpec) -> str:
                f"{_v(spec.gravity)} m/s²</p>")
     return (f"{style}<div style='overflow-x:auto'><table class='ml-joints' id='ml-joints'>"
             f"<tr>{header}</tr>{''.join(rows)}</table></div>{payload}")
+
+
+def _friction(joint: Any) -> str:
+    """Fc/Fs/Fv of the joint, and its cylinder's rod friction in newtons when it has one."""
+    f, rod = joint.friction, joint.rod_friction
+    text = "/".join(_g(x) for x in (f.coulomb, f.static, f.viscous))
+    if rod is not None:
+        text += " + rod " + "/".join(_g(x) for x in (rod.coulomb, rod.static, rod.viscous)) + " N"
+    return text
 
 
 def _actuator(joint: Any) -> str:
