@@ -319,13 +319,14 @@ def test_rod_coulomb_and_the_valve_are_recovered_from_pressures_five_times_off()
     coulomb = f"{LIFT}.friction.coulomb"
     flow, ratio = "joints.lift.actuator.valve.nominal_flow", "joints.lift.actuator.valve.flow_ratio"
     truth = {coulomb: 2000.0, flow: 6.0e-4, ratio: 0.6}
-    lift = {"lift": S.step(0.4, 0.1) + S.step(-0.8, 0.5) + S.step(0.4, 0.9)}
-    data = synthetic(spec, truth, lift, [0.0, -0.3, 1.2], 1.2, rate=0.004,
+    lift = {"lift": S.step(0.4, 0.1) + S.step(-0.8, 0.4) + S.step(0.4, 0.7)}
+    data = synthetic(spec, truth, lift, [0.0, -0.3, 1.2], 1.0, rate=0.004,
                      noise={"q": 1e-4, "pA": 2e4, "pB": 2e4})
     start = spec.with_overrides({coulomb: 5.0 * truth[coulomb], flow: 5.0 * truth[flow],
                                  ratio: truth[ratio] / 5.0})
     result = identify(start, [data], list(truth), progress=False)
-    # measured: Coulomb +0.64 %, nominal flow -0.05 %, flow ratio +0.04 % (the Coulomb's 95 %
-    # interval, ±0.6 %, may just miss the truth: the rod sticks a step early or late)
+    # measured: Coulomb -0.39 %, nominal flow -0.002 %, flow ratio -0.05 %, each 95 % interval
+    # holding the truth (not asserted: the rod sticks a step early or late, and the Coulomb's
+    # interval, ±0.7 %, can miss it by a hair with other noise)
     for p, value in zip(result.parameters, result.values):
         assert value == pytest.approx(truth[p.path], rel=0.05), p.path
