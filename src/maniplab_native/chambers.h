@@ -72,6 +72,10 @@ typedef struct {
                                  deadband) */
   double point_u[ML_VALVE_POINTS]; /* its commands, ascending */
   double point_x[ML_VALVE_POINTS]; /* the spool's openings there, non-decreasing, -1..1 */
+  double post;                /* 1: the compensator sits after the metering edge and is set by
+                                 the highest load on the pump (flow sharing, LUDV): every
+                                 section's edge sees the pump's pressure less that load; 0: a
+                                 local compensator before the edge (or none) */
 } ml_chambers;
 
 /* The spool's opening the command u asks for (its steady position), -1..1: the characteristic's
@@ -159,6 +163,20 @@ static inline double ml_compensated_slope(const ml_chambers* c, double dp) {
   return 0.5 * (1.0 - over / sqrt(over * over + c->laminar * c->laminar));
 }
 
+/* The drop across a meter-in edge fed at ps into a chamber at p, Pa: ps - p, or on a
+   post-compensated section ps less the highest load on the pump (its own or the others'), the
+   compensator after the edge taking the rest. */
+static inline double ml_metering_drop(const ml_chambers* c, double ps, double p) {
+  if (c->post > 0.0 && c->ls_others > p) return ps - c->ls_others;
+  return ps - p;
+}
+
+/* d(ml_metering_drop)/d(p): -1, or 0 on a post-compensated section whose load is not the
+   highest. */
+static inline double ml_metering_slope(const ml_chambers* c, double p) {
+  return c->post > 0.0 && c->ls_others > p ? 0.0 : -1.0;
+}
+
 /* A meter-in edge's root at the drop dp: the load-check valve lets no oil back (0 where the
    drop it sees is <= 0); with a compensator the edge sees ml_compensated_drop, so the flow
    follows the opening and not the load while the supply exceeds the chamber's pressure by the
@@ -213,9 +231,9 @@ static inline void ml_valve_edges(const ml_chambers* c, double x, double pa, dou
   double open = x > 0.0 ? x : 0.0, reverse = x < 0.0 ? -x : 0.0;
   double l = c->laminar;
   double ps = ml_supply_seen(c, pa, pb, x);
-  *qa = c->gain_a * open * ml_meter_in_root(c, ps - pa) -
+  *qa = c->gain_a * open * ml_meter_in_root(c, ml_metering_drop(c, ps, pa)) -
         c->out_a * reverse * ml_orifice_root(pa - c->tank, l);
-  *qb = c->gain_b * reverse * ml_meter_in_root(c, ps - pb) -
+  *qb = c->gain_b * reverse * ml_meter_in_root(c, ml_metering_drop(c, ps, pb)) -
         c->out_b * open * ml_orifice_root(pb - c->tank, l);
 }
 
@@ -223,8 +241,8 @@ static inline void ml_valve_edges(const ml_chambers* c, double x, double pa, dou
    (x < 0), m^3/s. */
 static inline double ml_supply_draw(const ml_chambers* c, double x, double pa, double pb,
                                     double ps) {
-  if (x >= 0.0) return c->gain_a * x * ml_meter_in_root(c, ps - pa);
-  return -c->gain_b * x * ml_meter_in_root(c, ps - pb);
+  if (x >= 0.0) return c->gain_a * x * ml_meter_in_root(c, ml_metering_drop(c, ps, pa));
+  return -c->gain_b * x * ml_meter_in_root(c, ml_metering_drop(c, ps, pb));
 }
 
 /* (dpA/dt, dpB/dt, dx/dt) at current u (clipped), length s and its rate sdot. */
@@ -254,16 +272,16 @@ static inline void ml_chambers_jacobian_law(const ml_chambers* c, double pa, dou
      meter-in edge feeds: the drop, and the edge's flow, do not change with it */
   double ps = ml_supply_seen(c, pa, pb, x), follows = 1.0 - ml_supply_follows(c, pa, pb, x);
   if (forward) { /* P -> A, B -> T */
-    double up = ps - pa, down = pb - c->tank;
-    dqa_dpa = -c->gain_a * x * ml_meter_in_slope(c, up) * follows;
+    double up = ml_metering_drop(c, ps, pa), down = pb - c->tank;
+    dqa_dpa = c->gain_a * x * ml_meter_in_slope(c, up) * ml_metering_slope(c, pa) * follows;
     dqa_dx = c->gain_a * ml_meter_in_root(c, up);
     dqb_dpb = -c->out_b * x * ml_orifice_slope(down, l);
     dqb_dx = -c->out_b * ml_orifice_root(down, l);
   } else {       /* P -> B, A -> T */
-    double up = ps - pb, down = pa - c->tank;
+    double up = ml_metering_drop(c, ps, pb), down = pa - c->tank;
     dqa_dpa = c->out_a * x * ml_orifice_slope(down, l);
     dqa_dx = c->out_a * ml_orifice_root(down, l);
-    dqb_dpb = c->gain_b * x * ml_meter_in_slope(c, up) * follows;
+    dqb_dpb = -c->gain_b * x * ml_meter_in_slope(c, up) * ml_metering_slope(c, pb) * follows;
     dqb_dx = -c->gain_b * ml_meter_in_root(c, up);
   }
   double ka = c->bulk_modulus / va, kb = c->bulk_modulus / vb, leak = c->leakage;
@@ -308,7 +326,8 @@ static inline void ml_chambers_powers(const ml_chambers* c, double pa, double pb
   ml_valve_edges(c, x, pa, pb, &qa, &qb);
   double fed = x > 0.0 ? pa : pb, drained = x > 0.0 ? pb : pa;
   double in = x > 0.0 ? qa : (x < 0.0 ? qb : 0.0), out = x > 0.0 ? -qb : (x < 0.0 ? -qa : 0.0);
-  double drop = ps - fed, seen = ml_compensated_drop(c, drop), leak = c->leakage * (pa - pb);
+  double drop = ps - fed, leak = c->leakage * (pa - pb);
+  double seen = ml_compensated_drop(c, ml_metering_drop(c, ps, fed));
   for (int k = 0; k < ML_ENERGIES; k++) powers[k] = 0.0;
   powers[ML_SUPPLY_TIME] = ps;
   powers[ML_E_PUMP] = ps * in;

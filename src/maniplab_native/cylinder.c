@@ -72,7 +72,7 @@ static const char* kAttributes[] = {
     "area_a", "area_b", "dead_a", "dead_b", "min_length", "stroke", "bulk_modulus", "leakage",
     "gain_a", "gain_b", "laminar", "supply_pressure", "tank_pressure", "relief_pressure",
     "valve_tau", "current_limit", "pump_flow", "out_a", "out_b", "compensator_margin",
-    "pump_ls_margin", "deadband", "characteristic", "pump_response"};
+    "pump_ls_margin", "deadband", "characteristic", "pump_response", "flow_sharing"};
 
 static int required(const mjModel* m, int instance, const char* key, double* value, int positive) {
   return ml_config_required(m, instance, PLUGIN, key, value, positive);
@@ -132,6 +132,17 @@ static int read_law(const mjModel* m, int instance, ml_chambers* c) {
     return -1;
   }
   if (read_characteristic(m, instance, c)) return -1;
+  double sharing = 0.0;
+  if (ml_config_number(m, instance, "flow_sharing", &sharing) < 0) return -1;
+  if (sharing != 0.0 && sharing != 1.0) {
+    mju_warning(PLUGIN ": flow_sharing %g must be 0 or 1", sharing);
+    return -1;
+  }
+  if (sharing == 1.0 && c->margin > 0.0) {
+    mju_warning(PLUGIN ": flow_sharing and compensator_margin exclude each other");
+    return -1;
+  }
+  c->post = sharing;
   c->relief = 0.0;
   int has_relief = ml_config_number(m, instance, "relief_pressure", &c->relief);
   if (has_relief < 0) return -1;
@@ -226,6 +237,8 @@ static const double* drawing_states(const mjModel* m, const mjData* d, int i, co
   return d->act + m->actuator_actadr[c->actuator];
 }
 
+static double sensed_max(const mjModel* m, const mjData* d, int skip, double tank, int predicted);
+
 /* The shared supply's total draw at pressure ps: every cylinder of this plugin on the pump, at
    its current (or predicted) states. */
 static double pump_draw(const mjModel* m, const mjData* d, double ps, int predicted) {
@@ -234,7 +247,9 @@ static double pump_draw(const mjModel* m, const mjData* d, double ps, int predic
     const Cylinder* c = (const Cylinder*)d->plugin_data[i];
     if (m->plugin[i] != g_slot || c == NULL || c->pump_flow <= 0.0) continue;
     const double* x = drawing_states(m, d, i, c, predicted);
-    total += ml_supply_draw(&c->law, x[2], x[0], x[1], ps);
+    ml_chambers law = c->law;
+    if (law.post > 0.0) law.ls_others = sensed_max(m, d, i, law.tank, predicted);
+    total += ml_supply_draw(&law, x[2], x[0], x[1], ps);
   }
   return total;
 }
@@ -369,6 +384,7 @@ static ml_chambers step_law(const Cylinder* c, const mjtNum* state) {
     law.ls_margin = c->ls_margin;
     law.ls_others = state[START_OTHERS];
   }
+  if (c->pump_flow > 0.0 && law.post > 0.0) law.ls_others = state[START_OTHERS];
   return law;
 }
 
@@ -403,7 +419,7 @@ static void act_dot(const mjModel* m, mjData* d, int instance) {
     state[START_SDOT] = sdot;
     state[START_SUPPLY] = law.supply;
     state[PUMP_DUE] = c->pump_flow > 0.0;
-    if (c->pump_flow > 0.0 && c->ls_margin > 0.0) {
+    if (c->pump_flow > 0.0 && (c->ls_margin > 0.0 || c->law.post > 0.0)) {
       state[START_OTHERS] = sensed_max(m, d, instance, c->law.tank, CURRENT);
     }
   }
@@ -452,7 +468,8 @@ static void pump_over_step(const mjModel* m, mjData* d) {
     state[PUMP_P] = pump;
     state[PUMP_SET] = 1.0;
     state[PUMP_DUE] = 0.0;
-    if (c->ls_margin > 0.0) { /* the others' load-sense pressure: the mean of start and end */
+    if (c->ls_margin > 0.0 || c->law.post > 0.0) { /* the others' load sense: the mean of start
+                                                       and end */
       double sensed = sensed_max(m, d, i, c->law.tank, PREDICTED);
       state[START_OTHERS] = 0.5 * (state[START_OTHERS] + sensed);
     }

@@ -206,6 +206,9 @@ class ActuatorPlugin(abc.ABC):
         spring_name: what :meth:`stiffness` is, in messages ("oil spring").
         outputs: signals derived from the states (name -> unit) that a Run records besides
             them (NaN at joints without them); :meth:`output_values` computes them.
+        energy: how a run accounts the actuator's hydraulic energy: "plugin" (its engine
+            plugin keeps the terms of :mod:`maniplab.sim.energy`), "unaccounted" (hydraulic,
+            not accounted), None (no hydraulic energy).
         variants: other models under the same ``type``, chosen by a key of the section.
         variant_key: the key that chooses this model among its type's variants (``cylinder``
             makes a ``hydraulic`` actuator the pinned two-chamber cylinder).
@@ -224,6 +227,7 @@ class ActuatorPlugin(abc.ABC):
     command_unit: ClassVar[str] = ""
     spring_name: ClassVar[str] = "actuator spring"
     outputs: ClassVar[dict[str, str]] = {}
+    energy: ClassVar[str | None] = None
 
     def __init__(self, params: Any, joint: Joint) -> None:
         self.params = params

@@ -26,6 +26,7 @@ import numpy as np
 
 from maniplab.clib import Functions
 from maniplab.errors import ManiplabError
+from maniplab.spec import model_of
 
 if TYPE_CHECKING:
     import mujoco
@@ -80,11 +81,9 @@ class EnergyLayout:
     """
 
     def __init__(self, model: mujoco.MjModel, actuators: Sequence[object]) -> None:
-        from maniplab.actuators.hydraulic.pinned import PinnedCylinder
-
         self.n = len(actuators)
         joints = [j for j, a in enumerate(actuators)
-                  if isinstance(a, PinnedCylinder) and model.actuator_plugin[j] >= 0]
+                  if getattr(a, "energy", None) == "plugin" and model.actuator_plugin[j] >= 0]
         self.joints = np.array(joints, dtype=int)
         if not joints:
             self.adrs = np.zeros((0, len(TERMS) + 1), dtype=int)
@@ -195,11 +194,5 @@ def energy_report(run: Run) -> EnergyReport:
         pump_relief = max(0.0, float(spec.supply.max_flow * np.max(seen)) - float(
             np.sum(terms["pump"])))
     names = tuple(spec.joints[j].name for j in joints)
-    lumped = tuple(j.name for i, j in enumerate(spec.joints)
-                   if i not in set(joints.tolist()) and _hydraulic(j))
+    lumped = tuple(j.name for j in spec.joints if model_of(j).energy == "unaccounted")
     return EnergyReport(run.label, names, terms, pump_relief, lumped)
-
-
-def _hydraulic(joint: object) -> bool:
-    """Whether a joint's actuator is hydraulic."""
-    return getattr(getattr(joint, "actuator", None), "type", None) == "hydraulic"

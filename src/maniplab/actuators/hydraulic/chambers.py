@@ -31,7 +31,8 @@ class ChambersLaw(ctypes.Structure):
         "area_a", "area_b", "dead_a", "dead_b", "min_length", "stroke", "bulk_modulus",
         "leakage", "gain_a", "gain_b", "laminar", "supply", "tank", "relief", "inv_tau",
         "inv_current", "out_a", "out_b", "margin", "ls_margin", "ls_others", "deadband",
-        "points")), ("point_u", c_double * POINTS), ("point_x", c_double * POINTS)]
+        "points")), ("point_u", c_double * POINTS), ("point_x", c_double * POINTS),
+        ("post", c_double)]
 
 
 _D = c_double
@@ -59,7 +60,7 @@ def chambers_law(p: PinnedHydraulicActuator) -> ChambersLaw:
         leakage=p.leakage, gain_a=v.gain_a, gain_b=v.gain_b, laminar=LAMINAR * v.edge_drop,
         supply=p.supply_pressure, tank=p.tank_pressure, relief=p.relief_pressure or 0.0,
         inv_tau=1.0 / v.tau, inv_current=1.0 / v.current_limit, out_a=v.out_a, out_b=v.out_b,
-        margin=v.compensator_margin or 0.0, deadband=v.deadband)
+        margin=v.compensator_margin or 0.0, deadband=v.deadband, post=float(v.flow_sharing))
     for k, (command, opening) in enumerate(v.characteristic or ()):
         law.point_u[k], law.point_x[k] = command, opening
     law.points = len(v.characteristic or ())
@@ -80,6 +81,8 @@ def plugin_config(p: PinnedHydraulicActuator) -> dict[str, float | str]:
         config["compensator_margin"] = p.valve.compensator_margin
     if p.valve.deadband > 0.0:
         config["deadband"] = p.valve.deadband
+    if p.valve.flow_sharing:
+        config["flow_sharing"] = 1.0
     if p.valve.characteristic is not None:
         config["characteristic"] = " ".join(repr(float(v)) for point in p.valve.characteristic
                                             for v in point)

@@ -66,6 +66,7 @@ class HydraulicCylinder(ActuatorPlugin):
     command: ClassVar[str] = "iv"
     command_unit: ClassVar[str] = "A"
     spring_name: ClassVar[str] = "oil spring"
+    energy: ClassVar[str | None] = "unaccounted"
     params: HydraulicActuator
 
     @property

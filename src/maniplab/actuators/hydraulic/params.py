@@ -199,6 +199,12 @@ class Valve:
             the meter-in edge, so the flow follows the opening and not the load while the supply
             exceeds the chamber's pressure by it (below, the edge sees the whole drop, the
             orifice law); None: no compensator.
+        flow_sharing: the section is post-compensated (flow sharing, LUDV): its compensator sits
+            after the meter-in edge and is set by the highest load on the shared pump, so every
+            such section's edge sees the pump's pressure less that load (a load-sensing pump's
+            margin) and, when the pump runs short, every section slows in the same proportion;
+            excludes ``compensator_margin`` (the pre-compensated kind, whose lightest loads keep
+            their flow when the pump runs short).
         tau: the spool's time constant, s.
         current_limit: the command that opens it fully, measured from neutral: A, or the
             unit of ``command_unit``.
@@ -220,6 +226,7 @@ class Valve:
     flow_ratio: Positive = 1.0
     meter_out_ratio: Positive = 1.0
     compensator_margin: Positive | None = None
+    flow_sharing: bool = False
     tau: Positive = 0.01
     current_limit: Positive = 1.0
     command_unit: Literal["A", "mA", "V", "%"] = "A"
@@ -227,6 +234,9 @@ class Valve:
     characteristic: Annotated[tuple[tuple[Real, Real], ...], BeforeValidator(sequence)] | None = None
 
     def __post_init__(self) -> None:
+        if self.flow_sharing and self.compensator_margin is not None:
+            raise ValueError("flow_sharing (a post-compensated section) and compensator_margin (a "
+                             "pre-compensated one) exclude each other: give one")
         if not self.deadband < self.current_limit:
             raise ValueError(f"deadband {self.deadband:g} is not below current_limit "
                              f"{self.current_limit:g}")

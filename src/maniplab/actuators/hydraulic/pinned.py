@@ -69,6 +69,7 @@ class PinnedCylinder(ActuatorPlugin):
     command: ClassVar[str] = "iv"
     spring_name: ClassVar[str] = "oil spring"
     outputs: ClassVar[dict[str, str]] = {"stroke": "m", "cylinder_force": "N"}
+    energy: ClassVar[str | None] = "plugin"
     params: PinnedHydraulicActuator
 
     @classmethod
