@@ -5,7 +5,13 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from maniplab.cli.common import output_file, set_option, spec_argument, spec_with_sets
+from maniplab.cli.common import (
+    output_file,
+    positive_seconds,
+    set_option,
+    spec_argument,
+    spec_with_sets,
+)
 
 
 def add(sub: argparse._SubParsersAction) -> None:
@@ -33,9 +39,13 @@ def add(sub: argparse._SubParsersAction) -> None:
     set_option(p, "PATH=VALUE override of the spec, repeatable: a parameter's start (the fit "
                   "starts from the spec's values), e.g. end_effector.mass=4000")
     p.add_argument("--signals", metavar="S1,S2",
-                   help="measured signals to fit (default: all the data has of q, qd, dP, pA, pB)")
+                   help="measured signals to fit (default: all the data has of q, qd, dP, pA, pB, "
+                        "stroke)")
     p.add_argument("--loss", default="linear", choices=("linear", "soft_l1", "huber", "cauchy"),
                    help="least-squares loss: linear, or a robust one against outliers")
+    p.add_argument("--dt", type=positive_seconds, metavar="S",
+                   help="the plant's step for every candidate, s (default: derived for the "
+                        "start's accuracy); a finer one shows how far the step moves the fit")
     p.add_argument("-o", "--output", type=output_file, default=Path("out/fitted.yaml"),
                    metavar="FILE", help="the fitted spec (default: out/fitted.yaml)")
     p.add_argument("--figure", type=output_file, default=Path("out/identify.png"),
@@ -63,7 +73,7 @@ def _cmd_identify(args: argparse.Namespace) -> int:
 
         raise IdentificationError("no data: give one or more files (CSV or run files), or "
                                   "--suggest for experiments to make them")
-    result = identify(spec, args.data, params, signals=signals, loss=args.loss)
+    result = identify(spec, args.data, params, signals=signals, loss=args.loss, dt=args.dt)
     print(result.report())
     header = [(f"# maniplab spec '{result.spec.name}', fitted by maniplab identify to "
                f"{', '.join(str(d) for d in args.data)}:")]

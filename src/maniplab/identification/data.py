@@ -9,9 +9,11 @@ A CSV file has a header row and one row per sample::
 
 ``t`` is the time (s, increasing, any start, any rate); every other column is
 ``<signal>.<joint>``: ``ctrl`` the command applied (valve current in A, or force/torque), and the
-measured ``q`` (rad or m, required for at least one joint), ``qd`` (rad/s or m/s), ``dP``, ``pA``,
-``pB`` (Pa). A joint without a ``ctrl`` column gets 0 (a closed valve, no force). A maniplab run
-file (.npz) is read the same way: its ``ctrl`` as the inputs, its q, qd and pressures as measured.
+measured ``q`` (rad or m), ``qd`` (rad/s or m/s), ``dP``, ``pA``, ``pB`` (Pa) and ``stroke`` (m: a
+pinned cylinder's piston travel from fully retracted, as a length transducer in the cylinder
+reads it); ``q`` or ``stroke`` is required for at least one joint. A joint without a ``ctrl``
+column gets 0 (a closed valve, no force). A maniplab run file (.npz) is read the same way: its
+``ctrl`` as the inputs, its q, qd, pressures and strokes as measured.
 """
 
 from __future__ import annotations
@@ -29,7 +31,7 @@ from maniplab.errors import ManiplabError
 from maniplab.spec import ManipulatorSpec
 
 INPUT = "ctrl"
-MEASURABLE = ("q", "qd", "dP", "pA", "pB")
+MEASURABLE = ("q", "qd", "dP", "pA", "pB", "stroke")
 """The signals a fit compares, in the order residuals are stacked."""
 
 
@@ -89,8 +91,8 @@ def _signals(signals: Iterable[str] | None) -> tuple[str, ...]:
     if unknown:
         raise DataError(f"unknown measured signal(s) {', '.join(unknown)}; expected some of "
                         f"{', '.join(MEASURABLE)}")
-    if "q" not in keep:
-        raise DataError("the measured signals must include q")
+    if "q" not in keep and "stroke" not in keep:
+        raise DataError("the measured signals must include q or stroke")
     return keep
 
 
@@ -181,9 +183,9 @@ def _from_run(path: Path, spec: ManipulatorSpec, signals: tuple[str, ...]) -> Ex
 
 def _experiment(path: Path, spec: ManipulatorSpec, t: np.ndarray, inputs: dict[str, np.ndarray],
                 measured: dict[tuple[str, str], np.ndarray]) -> Experiment:
-    if not any(signal == "q" for signal, _ in measured):
-        raise DataError(f"{path}: no measured position: give a column q.<joint> for at least one "
-                        f"joint of {spec.name}")
+    if not any(signal in ("q", "stroke") for signal, _ in measured):
+        raise DataError(f"{path}: no measured position: give a column q.<joint> or "
+                        f"stroke.<joint> for at least one joint of {spec.name}")
     zero = np.zeros_like(t)
     full = {joint: inputs.get(joint, zero) for joint in spec.joint_names}
     return Experiment(path.name, t, full, measured)

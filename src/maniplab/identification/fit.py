@@ -73,11 +73,11 @@ from maniplab.identification.data import Experiment, load_experiments
 from maniplab.identification.parameters import FLOOR, Parameter, parse_parameters
 from maniplab.progress import Progress
 from maniplab.sim.signals import held
-from maniplab.spec import ManipulatorSpec
+from maniplab.spec import ManipulatorSpec, model_of
 from maniplab.workers import Threads
 
-UNIT_SCALES = {"q": 1e-3, "qd": 1e-2, "dP": 1e5, "pA": 1e5, "pB": 1e5}
-"""The first fit's scale of each signal: 1 mrad (or mm), 0.01 rad/s (or m/s), 1 bar."""
+UNIT_SCALES = {"q": 1e-3, "qd": 1e-2, "dP": 1e5, "pA": 1e5, "pB": 1e5, "stroke": 1e-3}
+"""The first fit's scale of each signal: 1 mrad (or mm), 0.01 rad/s (or m/s), 1 bar, 1 mm."""
 
 CORRELATED = 0.95
 """|correlation| above which two parameters cannot be told apart from the data."""
@@ -184,7 +184,7 @@ def identify(spec: ManipulatorSpec | str | os.PathLike[str],
              data: Sequence[Experiment] | Sequence[str | os.PathLike[str]],
              params: Iterable[str | Parameter], *, signals: Iterable[str] | None = None,
              loss: Loss = "linear", max_evaluations: int = 60, workers: int | None = None,
-             progress: bool | None = None) -> Identification:
+             progress: bool | None = None, dt: float | None = None) -> Identification:
     """Fit ``params`` of ``spec`` to measured experiments.
 
     Args:
@@ -199,6 +199,8 @@ def identify(spec: ManipulatorSpec | str | os.PathLike[str],
         max_evaluations: residual evaluations per fit stage (each also takes a Jacobian).
         workers: threads for the Jacobian's simulations (default: the cores).
         progress: show progress (None: a bar on a terminal, lines in a log when it lasts).
+        dt: the plant's step for every candidate, s (default: the one derived for the start's
+            accuracy); a finer one shows how far the plant's discretization moves the values.
 
     Raises:
         IdentificationError, DataError, SpecError: one line.
@@ -213,7 +215,7 @@ def identify(spec: ManipulatorSpec | str | os.PathLike[str],
     texts = [p for p in wanted if not isinstance(p, Parameter)]
     parameters = tuple(p for p in wanted if isinstance(p, Parameter)) + \
         (tuple(parse_parameters(texts, spec)) if texts else ())
-    problem = _Problem(spec, parameters, experiments)
+    problem = _Problem(spec, parameters, experiments, dt)
     pool = Threads(workers or os.cpu_count() or 1)
     bar = Progress(2 * max_evaluations, f"identify {spec.name}: {len(parameters)} parameters",
                    progress)
@@ -261,8 +263,9 @@ class _Problem:
     or its logarithm: module docstring; then the initial-state offsets) -> weighted residuals."""
 
     def __init__(self, spec: ManipulatorSpec, parameters: tuple[Parameter, ...],
-                 experiments: tuple[Experiment, ...]) -> None:
+                 experiments: tuple[Experiment, ...], dt: float | None = None) -> None:
         self.spec, self.parameters, self.experiments = spec, parameters, experiments
+        self.dt = dt
         self.log = np.array([p.log_scale for p in parameters], dtype=bool)
         self.starts = np.array([p.start for p in parameters], dtype=float)
         self.keys = [sorted(e.measured, key=_order) for e in experiments]
@@ -349,7 +352,7 @@ class _Problem:
             known = arm_accuracy(self.spec)  # every candidate at the arm's step (cached)
             out = []
             for i, (e, keys) in enumerate(zip(self.experiments, self.keys)):
-                plant = Plant(spec, accuracy=known)
+                plant = Plant(spec, dt=self.dt, accuracy=known)
                 _start(plant, e, self.initial_offsets(x, i))
                 run = simulate(plant, inputs={j: held(e.t, u) for j, u in e.inputs.items()},
                                duration=max(e.duration, 1e-9), progress=False)
@@ -698,12 +701,27 @@ def _start(plant: Any, e: Experiment, offsets: dict[tuple[str, str], float]) -> 
                 out[j] = line + offsets.get((signal, j), 0.0)
         return out
 
-    plant.set_state(q=[first("q").get(j, 0.0) for j in names],
+    positions = {**_positions_of_strokes(plant.spec, first("stroke")), **first("q")}
+    plant.set_state(q=[positions.get(j, 0.0) for j in names],
                     qd=[first("qd").get(j, 0.0) for j in names])
     plant.balance_pressures()
     measured = {s: first(s) for s in ("dP", "pA", "pB") if first(s)}
     if measured:
         plant.set_state(**measured)
+
+
+def _positions_of_strokes(spec: ManipulatorSpec, strokes: dict[str, float]) -> dict[str, float]:
+    """The joint positions where the cylinders have these strokes (m), on the branch of each
+    joint's mid-range (the pins' geometry inverted)."""
+    out = {}
+    for name, stroke in strokes.items():
+        joint = spec.joint(name)
+        geometry = getattr(model_of(joint), "geometry", None)
+        if geometry is None:
+            continue
+        middle = 0.5 * sum(joint.limits) if joint.limits else 0.0
+        out[name] = geometry.position(joint.actuator.cylinder.min_length + stroke, middle)
+    return out
 
 
 def _warnings(parameters: Sequence[Parameter], values: np.ndarray, std: np.ndarray,
