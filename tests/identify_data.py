@@ -17,14 +17,15 @@ RATE = 0.002
 
 def synthetic(spec: ml.ManipulatorSpec, truth: dict[str, float], inputs: dict[str, ml.signals.Signal],
               q0: list[float], duration: float, seed: int = 0,
-              noise: dict[str, float] | None = None, rate: float = RATE) -> Experiment:
+              noise: dict[str, float] | None = None, rate: float = RATE,
+              supply: object = None) -> Experiment:
     """An experiment on ``spec`` with ``truth`` applied, from rest at q0, sampled every ``rate``
     s, with the measurement noise ``noise`` (signal -> σ; default :data:`NOISE`) on each joint
-    that has the signal."""
+    that has the signal; ``supply``: the rig's measured supply pressure (a signal, Pa), if any."""
     t = np.arange(0.0, duration + 1e-9, rate)
     held = {j: ml.signals.held(t, s.sample(t)) for j, s in inputs.items()}
     run = ml.simulate(spec.with_overrides(truth), inputs=held, duration=duration,
-                      initial={"q": q0, "dP": "gravity"}, sample_dt=rate)
+                      initial={"q": q0, "dP": "gravity"}, sample_dt=rate, supply=supply)
     rng = np.random.default_rng(seed)
     measured = {}
     for k, joint in enumerate(spec.joint_names):

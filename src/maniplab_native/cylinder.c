@@ -53,11 +53,12 @@ static int g_slot = -1;  /* this plugin's registered slot */
    pressure at the step's end (it goes linearly from START_SUPPLY), and a pump with a response
    time its own pressure (PUMP_P, once PUMP_SET), whether the pump's step is still to be taken
    (PUMP_DUE: set at the step's start, cleared by the first cylinder's `advance` for all on the
-   pump); then the energies since the last reset
+   pump), whether the step's supply pressure is a measured one (MEASURED); then the energies
+   since the last reset
    (chambers.h's ML_E_* terms, J, and the supply pressure's integral; Python zeroes them when a
    run starts) */
 enum { START_TIME, HAVE_START, START_Y, START_S = START_Y + 3, START_SDOT, START_SUPPLY, PRED_Y,
-       START_OTHERS = PRED_Y + 3, END_SUPPLY, PUMP_P, PUMP_SET, PUMP_DUE, ENERGY,
+       START_OTHERS = PRED_Y + 3, END_SUPPLY, PUMP_P, PUMP_SET, PUMP_DUE, MEASURED, ENERGY,
        NSTATE = ENERGY + ML_ACCUMULATED };
 
 /* Where an instance's energies start in its plugin_state, and how many there are (for the
@@ -380,12 +381,21 @@ static double pump_pressure(const mjModel* m, const mjData* d, const Cylinder* c
 static ml_chambers step_law(const Cylinder* c, const mjtNum* state) {
   ml_chambers law = c->law;
   law.supply = state[START_SUPPLY];
-  if (c->pump_flow > 0.0 && c->ls_margin > 0.0 && c->pump_tau <= 0.0) {
+  if (c->pump_flow > 0.0 && c->ls_margin > 0.0 && c->pump_tau <= 0.0 && !state[MEASURED]) {
     law.ls_margin = c->ls_margin;
     law.ls_others = state[START_OTHERS];
   }
   if (c->pump_flow > 0.0 && law.post > 0.0) law.ls_others = state[START_OTHERS];
   return law;
+}
+
+/* A measured supply pressure for the step, Pa (d->userdata[0] at its start, [1] at its end;
+   the run loop writes them from a run's input), into start and end; 0 when none is given. */
+static int measured_supply(const mjModel* m, const mjData* d, double* start, double* end) {
+  if (m->nuserdata < 2 || !(d->userdata[0] > 0.0)) return 0;
+  *start = d->userdata[0];
+  *end = d->userdata[1] > 0.0 ? d->userdata[1] : d->userdata[0];
+  return 1;
 }
 
 static void act_dot(const mjModel* m, mjData* d, int instance) {
@@ -419,6 +429,14 @@ static void act_dot(const mjModel* m, mjData* d, int instance) {
     state[START_SDOT] = sdot;
     state[START_SUPPLY] = law.supply;
     state[PUMP_DUE] = c->pump_flow > 0.0;
+    double start, end;
+    state[MEASURED] = measured_supply(m, d, &start, &end);
+    if (state[MEASURED]) { /* the rig's pump, as measured, instead of the model's */
+      state[START_SUPPLY] = start;
+      state[END_SUPPLY] = end;
+      state[PUMP_P] = start;
+      state[PUMP_DUE] = 0.0;
+    }
     if (c->pump_flow > 0.0 && (c->ls_margin > 0.0 || c->law.post > 0.0)) {
       state[START_OTHERS] = sensed_max(m, d, instance, c->law.tank, CURRENT);
     }

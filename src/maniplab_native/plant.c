@@ -740,16 +740,17 @@ static void record_forces(const ml_plant* p, ml_run* r, int row) {
 
 /* A run's counts and times as the loop needs them (the caller checks them with a message; this
    keeps the loop from dividing by zero or indexing outside its tables whoever calls it). */
-static int valid_run(const ml_run* r) {
+static int valid_run(const ml_plant* p, const ml_run* r) {
   return r->steps >= 0 && r->every >= 1 && r->k >= 0 && r->max_steps >= 0 && isfinite(r->t0) &&
          isfinite(r->dt) && r->dt > 0.0 && isfinite(r->period) && r->period >= 0.0 &&
-         r->inputs_k0 >= 0 && r->inputs_k0 <= r->k && r->rows >= 0;
+         r->inputs_k0 >= 0 && r->inputs_k0 <= r->k && r->rows >= 0 &&
+         (r->columns == 0 || r->columns == p->n || r->columns == p->n + 1);
 }
 
 static int run(ml_plant* p, ml_run* r) {
   int n = p->n, taken = 0;
   double* u = p->command;
-  if (!valid_run(r)) return fail(p, ML_BAD_RUN, -1, -1);
+  if (!valid_run(p, r)) return fail(p, ML_BAD_RUN, -1, -1);
   for (; r->k <= r->steps; r->k++) {
     int64_t k = r->k;
     double t = r->t0 + k * r->dt;
@@ -761,9 +762,14 @@ static int run(ml_plant* p, ml_run* r) {
       }
       r->next_call = r->period > 0.0 ? r->next_call + r->period : t;
     }
-    const double* in = r->inputs ? r->inputs + (size_t)(k - r->inputs_k0) * n : NULL;
+    int columns = r->columns > n ? r->columns : n;
+    const double* in = r->inputs ? r->inputs + (size_t)(k - r->inputs_k0) * columns : NULL;
     for (int j = 0; j < n; j++) {
       u[j] = in ? r->held[j] + in[j] : r->held[j];
+    }
+    if (in && columns > n && p->m->nuserdata >= 2) { /* the measured supply over the step */
+      p->d->userdata[0] = in[n];
+      p->d->userdata[1] = k < r->steps ? in[columns + n] : in[n];
     }
     int status = prepare(p, u);
     if (status == ML_BAD_COMMAND) p->error.time = t;

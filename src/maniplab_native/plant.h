@@ -127,6 +127,10 @@ typedef struct {
   double* ee_pos;          /* (rows, 3): its position at the step's start (d->xpos) */
   double* plugin_state;    /* (rows, npluginstate): the plugins' states at the step's start (the
                               cylinders' energy accumulators among them), or NULL */
+  int columns;             /* the inputs' columns: n (0 reads as n), or n + 1 with a measured
+                              supply pressure (Pa) last, written to d->userdata[0] for the step's
+                              start and [1] for its end (the pinned cylinders take it instead of
+                              their pump's; the model needs nuserdata >= 2) */
 } ml_run;
 
 /* Outcome details after a call returned an error. */

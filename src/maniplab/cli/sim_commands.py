@@ -75,6 +75,10 @@ def _add_simulate(sub: argparse._SubParsersAction) -> None:
                    help="write the samples to the run file as the run goes, in chunks, instead "
                         "of keeping them in memory (for runs too long for the memory; the file "
                         "appears complete when the run ends)")
+    p.add_argument("--supply", metavar="SIGNAL|FILE.csv",
+                   help="a measured supply pressure, Pa, that every pinned cylinder's valve is "
+                        "fed at instead of its pump's: a signal as for --input (e.g. 8e6+sine:"
+                        "5e5,2), or a measurement CSV with columns t and supply")
     p.add_argument("-o", "--output", type=output_file, default=Path("out/run.npz"), metavar="FILE",
                    help="the run file to write (default: out/run.npz)")
     p.set_defaults(func=_cmd_simulate)
@@ -166,6 +170,17 @@ def _inputs(texts: list[str]) -> dict[str | int, Signal]:
     return inputs
 
 
+def _supply(text: str) -> Signal:
+    """The --supply option: a signal, or a measurement CSV's ``supply`` column held at its
+    samples."""
+    from maniplab.identification.data import load_supply
+    from maniplab.sim.grammar import parse_input
+
+    if text.lower().endswith(".csv"):
+        return load_supply(Path(text))
+    return parse_input(f"supply={text}")[1]
+
+
 def _initial(args: argparse.Namespace) -> dict[str, object] | None:
     """The run's initial state of --start and --balanced (None: at rest at q = 0, no pressure)."""
     initial: dict[str, object] = {}
@@ -197,7 +212,8 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     run = ml.simulate(spec, inputs=_inputs(args.input), duration=args.duration, dt=args.dt,
                       overrides=overrides or None, initial=_initial(args),
                       label=args.output.stem, sample_dt=args.sample_dt,
-                      stream=args.output if args.stream else None)
+                      stream=args.output if args.stream else None,
+                      supply=_supply(args.supply) if args.supply else None)
     wall = time.perf_counter() - start
     if not args.stream:
         run.save(args.output)

@@ -12,8 +12,10 @@ A CSV file has a header row and one row per sample::
 measured ``q`` (rad or m), ``qd`` (rad/s or m/s), ``dP``, ``pA``, ``pB`` (Pa) and ``stroke`` (m: a
 pinned cylinder's piston travel from fully retracted, as a length transducer in the cylinder
 reads it); ``q`` or ``stroke`` is required for at least one joint. A joint without a ``ctrl``
-column gets 0 (a closed valve, no force). A maniplab run file (.npz) is read the same way: its
-``ctrl`` as the inputs, its q, qd, pressures and strokes as measured.
+column gets 0 (a closed valve, no force). An optional ``supply`` column (no joint) is the supply
+pressure measured at the pump (Pa): the simulations feed the pinned cylinders' valves at it
+instead of at the pump's model. A maniplab run file (.npz) is read the same way: its ``ctrl`` as
+the inputs, its q, qd, pressures and strokes as measured.
 """
 
 from __future__ import annotations
@@ -24,13 +26,19 @@ import math
 import os
 from collections.abc import Iterable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from maniplab.errors import ManiplabError
 from maniplab.spec import ManipulatorSpec
 
+if TYPE_CHECKING:
+    from maniplab.sim.signals import Signal
+
 INPUT = "ctrl"
+SUPPLY = "supply"
+"""The column of a measured supply pressure, Pa."""
 MEASURABLE = ("q", "qd", "dP", "pA", "pB", "stroke")
 """The signals a fit compares, in the order residuals are stacked."""
 
@@ -48,12 +56,14 @@ class Experiment:
         t: sample times from the experiment's start, s, (N,).
         inputs: joint name -> the command at each sample, (N,) (held until the next sample).
         measured: (signal, joint name) -> the measured values, (N,).
+        supply: the supply pressure measured at each sample, Pa, (N,), or None.
     """
 
     name: str
     t: np.ndarray
     inputs: dict[str, np.ndarray]
     measured: dict[tuple[str, str], np.ndarray]
+    supply: np.ndarray | None = None
 
     @property
     def duration(self) -> float:
@@ -117,21 +127,58 @@ def _from_csv(path: Path, spec: ManipulatorSpec, signals: tuple[str, ...]) -> Ex
     t = values[:, header.index("t")]
     _check_time(path, t)
     inputs, measured = {}, {}
+    supply = values[:, header.index(SUPPLY)] if SUPPLY in header else None
     for (signal, joint), column in zip(columns, values.T):
         if signal == INPUT:
             inputs[joint] = column
         elif signal in signals:
             measured[(signal, joint)] = column
-    return _experiment(path, spec, t - t[0], inputs, measured)
+    if supply is not None:
+        _check_supply(path, supply)
+    return dataclasses.replace(_experiment(path, spec, t - t[0], inputs, measured), supply=supply)
+
+
+def _check_supply(path: Path, supply: np.ndarray) -> None:
+    """A measured supply pressure is positive at every sample (Pa)."""
+    if not np.all(supply > 0.0):
+        k = int(np.argmax(~(supply > 0.0)))
+        raise DataError(f"{path} line {k + 2}, column 'supply': {supply[k]:.6g} Pa (a measured "
+                        "supply pressure is a positive number of pascals)")
+
+
+def load_supply(path: Path) -> Signal:
+    """The ``supply`` column of a measurement CSV (columns ``t`` and ``supply``, others ignored)
+    as a signal held at its samples (Pa), its time from the file's first sample.
+
+    Raises:
+        DataError: the file cannot be read, has no such columns, or a bad value (one line).
+    """
+    from maniplab.sim.signals import held
+
+    try:
+        with path.open(newline="", encoding="utf-8") as f:
+            rows = list(csv.reader(f))
+    except (OSError, UnicodeDecodeError) as e:
+        raise DataError(f"{path}: cannot read it ({e})") from None
+    header = [h.strip() for h in rows[0]] if rows else []
+    if "t" not in header or SUPPLY not in header or len(rows) < 3:
+        raise DataError(f"{path}: needs a header row with columns 't' and 'supply' (Pa) and at "
+                        "least two samples")
+    it, ip = header.index("t"), header.index(SUPPLY)
+    t = np.array([_number(path, i + 2, "t", r[it]) for i, r in enumerate(rows[1:])])
+    p = np.array([_number(path, i + 2, SUPPLY, r[ip]) for i, r in enumerate(rows[1:])])
+    _check_time(path, t)
+    _check_supply(path, p)
+    return held(t - t[0], p)
 
 
 def _column(path: Path, name: str, spec: ManipulatorSpec) -> tuple[str, str]:
-    if name == "t":
-        return ("t", "")
+    if name in ("t", SUPPLY):
+        return (name, "")
     signal, _, joint = name.partition(".")
     if signal not in (INPUT, *MEASURABLE) or not joint:
-        raise DataError(f"{path}: column {name!r} is not t or <signal>.<joint> with signal one of "
-                        f"{', '.join((INPUT, *MEASURABLE))}")
+        raise DataError(f"{path}: column {name!r} is not t, supply or <signal>.<joint> with "
+                        f"signal one of {', '.join((INPUT, *MEASURABLE))}")
     if joint not in spec.joint_names:
         raise DataError(f"{path}: column {name!r}: no joint {joint!r} in {spec.name} (joints: "
                         f"{', '.join(spec.joint_names)})")

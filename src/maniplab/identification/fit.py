@@ -355,7 +355,8 @@ class _Problem:
                 plant = Plant(spec, dt=self.dt, accuracy=known)
                 _start(plant, e, self.initial_offsets(x, i))
                 run = simulate(plant, inputs={j: held(e.t, u) for j, u in e.inputs.items()},
-                               duration=max(e.duration, 1e-9), progress=False)
+                               duration=max(e.duration, 1e-9), progress=False,
+                               supply=None if e.supply is None else held(e.t, e.supply))
                 out.append({k: np.interp(e.t, run.t, run[k[0]][:, spec.joint_index(k[1])])
                             for k in keys})
             return out

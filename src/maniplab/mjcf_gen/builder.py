@@ -195,6 +195,7 @@ def _configure(s: mujoco.MjSpec, spec: ManipulatorSpec) -> None:
     s.option.gravity = list(spec.gravity)
     s.option.timestep = TIMESTEP
     s.option.integrator = INTEGRATOR
+    s.nuserdata = 2  # a measured supply pressure at a step's start and end (cylinder.c)
 
 
 def _add_link(parent: mujoco.MjsBody, joint: Joint, at: np.ndarray) -> mujoco.MjsBody:

@@ -55,7 +55,7 @@ class RunStruct(ctypes.Structure):
         ("period", c_double), ("next_call", c_double), ("every", c_int64), ("rows", c_int),
         ("t", _D), ("q", _D), ("qd", _D), ("act", _D), ("ctrl", _D),
         ("mode", POINTER(ctypes.c_byte)), ("fric", _D), ("limit", _D), ("ee_body", c_int),
-        ("ee_pos", _D), ("plugin_state", _D),
+        ("ee_pos", _D), ("plugin_state", _D), ("columns", c_int),
     ]
 
 

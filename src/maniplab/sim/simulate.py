@@ -45,7 +45,8 @@ def simulate(spec_or_plant: SpecLike | Plant, *, inputs: Mapping[str | int, Any]
              controller: Controller | None = None, duration: float, dt: float | None = None,
              overrides: Mapping[str, Any] | None = None, initial: Mapping[str, Any] | None = None,
              sample_dt: float | None = None, integrator: str | None = None, label: str | None = None,
-             progress: bool | None = None, stream: str | os.PathLike[str] | None = None) -> Run:
+             progress: bool | None = None, stream: str | os.PathLike[str] | None = None,
+             supply: Any = None) -> Run:
     """Simulate an arm and record its signals.
 
     Args:
@@ -81,6 +82,10 @@ def simulate(spec_or_plant: SpecLike | Plant, *, inputs: Mapping[str | int, Any]
             appears complete when the run ends (nothing under its name if the run fails or is
             interrupted); the Run returned reads it memory-mapped. Not with a controller that
             adds signals to the run (``annotate``).
+        supply: a measured supply pressure, Pa, as a signal of time (as ``inputs`` take them;
+            e.g. ``ml.signals.held(t, p)`` of a rig's log): every pinned cylinder's valve is fed
+            at it instead of at its pump's (the pump's model, flow limit and load sensing are
+            left out), to validate the arm against rig data. Lumped cylinders keep their own.
 
     Returns:
         The Run: ``t`` (N,), signals ``q``, ``qd``, ``tau_act``, ``tau_fric``, ``tau_limit``,
@@ -101,6 +106,8 @@ def simulate(spec_or_plant: SpecLike | Plant, *, inputs: Mapping[str | int, Any]
     plant = _plant(spec_or_plant, dt=dt, overrides=overrides, integrator=integrator)
     steps = budget.steps_of(duration, plant.dt)
     drive = _inputs(plant, inputs or {})
+    if supply is not None:
+        drive.append((plant.n, _supply_signal(supply)))
     every = _sample_every(plant.dt, sample_dt)
     period = _controller_period(controller)
     target = _stream_target(stream, controller)
@@ -113,6 +120,8 @@ def simulate(spec_or_plant: SpecLike | Plant, *, inputs: Mapping[str | int, Any]
         loop = _Loop(plant, steps, every, drive, own, period, sink)
         _go(loop, plant, steps, progress)
         meta = _meta(plant, inputs or {}, own, period, overrides, initial, steps, every, label)
+        if supply is not None:
+            meta["supply"] = repr(as_signal(supply))
         if isinstance(sink, RunWriter):
             sink.finish(store.header_body(plant.spec, meta,
                                           {k: UNITS[k] for k in signals if k in UNITS}))
@@ -140,6 +149,7 @@ def _go(loop: _Loop, plant: Plant, steps: int, progress: bool | None) -> None:
             bar.step(f"t = {plant.t:.3g} s")
     finally:
         bar.close()
+        plant.data.userdata[:] = 0.0  # a measured supply ends with its run
 
 
 def _stream_target(stream: str | os.PathLike[str] | None,
@@ -242,6 +252,14 @@ def _inputs(plant: Plant, inputs: Mapping[str | int, Any]) -> list[tuple[int, Si
     return drive
 
 
+def _supply_signal(supply: Any) -> Signal:
+    """``simulate``'s ``supply`` as a signal."""
+    try:
+        return as_signal(supply)
+    except TypeError as exc:
+        raise InputError(f"supply: {exc}") from None
+
+
 def _sample_every(dt: float, sample_dt: float | None) -> int:
     if sample_dt is None:
         return max(1, round(1.0 / (MAX_SAMPLE_RATE * dt)))
@@ -314,12 +332,14 @@ class _Loop:
         self.held = np.zeros(plant.n)
         self.error: BaseException | None = None
         self._native: Any = None
+        self.columns = plant.n + any(j == plant.n for j, _ in drive)  # a measured supply last
+        plant.data.userdata[:] = 0.0  # no measured supply unless this run gives one
         function, context = self._controller(controller, steps, period)
         self.run = native.RunStruct(
             steps=steps, t0=t0, dt=dt, k=0, max_steps=self.CHUNK, inputs=None, inputs_k0=0,
             held=native.pointer(self.held), controller=function, controller_context=context,
             period=period or 0.0, next_call=t0, every=min(every, steps), rows=0,
-            ee_body=plant.model.body(END_EFFECTOR).id)
+            ee_body=plant.model.body(END_EFFECTOR).id, columns=self.columns)
         self.buffers.bind(self.run)
 
     def _controller(self, controller: Controller | None, steps: int,
@@ -353,9 +373,11 @@ class _Loop:
             return
         k0 = self.run.k
         times = self.t0 + np.arange(k0, min(k0 + self.CHUNK, self.steps) + 1) * self.dt
-        table = np.zeros((len(times), self.plant.n))
+        table = np.zeros((len(times), self.columns))
         for j, signal in self.drive:
             table[:, j] += signal.sample(times)
+        if self.columns > self.plant.n:
+            _check_supply(table[:, -1], times)
         self.table, self.table_k0 = table, k0
         self.run.inputs, self.run.inputs_k0 = native.pointer(table), k0
 
@@ -388,12 +410,21 @@ class _Loop:
                              f"{message or 'its command is not finite (NaN or infinity)'}")
         if status == native.BAD_COMMAND:
             k = self.run.k
-            inputs = self.table[k - self.table_k0] if self.table is not None else 0.0
+            inputs = self.table[k - self.table_k0, :self.plant.n] if self.table is not None else 0.0
             t = self.plant._c.error().time
             raise InputError(f"non-finite command at t = {t:.6g} s: "
                              f"{dict(zip(self.plant.joint_names, (self.held + inputs).tolist()))}")
         self.plant.check(status)
         return False
+
+
+def _check_supply(pressures: np.ndarray, times: np.ndarray) -> None:
+    """A measured supply pressure is positive and finite at every sample (Pa)."""
+    bad = ~(np.isfinite(pressures) & (pressures > 0.0))
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise InputError(f"supply: the measured supply pressure is {pressures[k]:.6g} Pa at "
+                         f"t = {times[k]:.6g} s; it must be a positive number of pascals")
 
 
 def _meta(plant: Plant, inputs: Mapping[Any, Any], controller: Controller | None,
