@@ -71,8 +71,8 @@ def _arms() -> dict[str, str]:
 ARMS = _arms()
 
 COMMANDS = ("validate", "info", "export-mjcf", "export-urdf", "model-python", "model-c", "fmu",
-            "simulate", "sweep", "crossval", "tune", "control", "control-pid", "loadchart",
-            "render", "identify", "gui-arm3d")
+            "simulate", "energy", "sweep", "crossval", "tune", "control", "control-pid",
+            "loadchart", "render", "identify", "gui-arm3d")
 
 
 FULL = os.environ.get("MANIPLAB_MATRIX") == "full"
@@ -106,7 +106,16 @@ _HOLD = Expected("refused", "joint shoulder cannot hold the arm on this path",
                  "at the mid-range pose (arm horizontal) the shoulder needs 83 % of its 120 N·m "
                  "to hold the arm, beyond the 80 % a move may plan with")
 
+_NO_PINNED = Expected("refused", "has no pinned cylinder",
+                     "no pinned cylinder: only pinned cylinders' energy is accounted")
+
+
+def _has_pinned(arm: str) -> bool:
+    return any(getattr(j.actuator, "cylinder", None) for j in ml.resolve_spec(ARMS[arm]).joints)
+
+
 EXPECTED: dict[tuple[str, str], Expected] = {
+    **{(arm, "energy"): _NO_PINNED for arm in ARMS if not _has_pinned(arm)},
     ("arms/electric2", "control"): _HOLD,
     ("arms/electric2", "control-pid"): _HOLD,
     ("arms/mixed/forestry_grapple", "control"): _STRAIGHT,
@@ -439,6 +448,24 @@ def cell_simulate(arm: str, work: Path) -> str:
     assert np.all((run.q >= lo - 1e-9) | ~limited) and np.all((run.q <= hi + 1e-9) | ~limited)
     np.testing.assert_allclose(run["ctrl"][:, 0], np.where(run.t >= 0.05, amplitude, 0.0))
     return "finite, within limits"
+
+
+def cell_energy(arm: str, work: Path) -> str:
+    """The balance of the arm's short run closes; the report names every pinned cylinder and
+    the piston work it accounts is the work of the actuators' forces on their joints."""
+    run_file = base_run(arm)
+    cli("energy", str(run_file), "-o", str(work / "energy.png"), "--json", str(work / "e.json"))
+    (report,) = json.loads((work / "e.json").read_text())
+    spec = spec_of(arm)
+    pinned = [j.name for j in spec.joints if getattr(j.actuator, "cylinder", None)]
+    assert report["joints"] == pinned
+    assert abs(report["residual"]) <= 1e-9 * max(report["pump"], 1.0)
+    run = ml.Run.load(run_file)
+    k = [spec.joint_index(j) for j in pinned]
+    work_done = np.trapezoid(run["tau_act"][:, k] * run.qd[:, k], run.t, axis=0)
+    scale = max(report["pump"], float(np.max(np.abs(report["terms"]["work"]))), 1.0)
+    np.testing.assert_allclose(report["terms"]["work"], work_done, atol=0.05 * scale)
+    return f"pump {report['pump']:.3g} J, residual {report['residual']:.1e} J"
 
 
 def cell_sweep(arm: str, work: Path) -> str:

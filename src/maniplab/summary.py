@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from maniplab.spec import Joint, ManipulatorSpec, model_of
+from maniplab.spec.arm import Supply
 
 _HEADER = ("joint", "type", "axis", "limits", "body length", "direction", "mass [kg]",
            "actuator", "friction")
@@ -22,11 +23,7 @@ def spec_table(spec: ManipulatorSpec) -> str:
     if spec.supply is not None:
         sharing = ", ".join(j.name for j in spec.joints
                             if getattr(j.actuator, "cylinder", None) is not None)
-        kind = ("" if spec.supply.ls_margin is None else
-                f"load-sensing, margin {spec.supply.ls_margin / 1e5:.4g} bar, cut-off ")
-        pump = (f"pump: {kind}{spec.supply.pressure / 1e6:g} MPa, "
-                f"{spec.supply.max_flow * 6e4:.4g} L/min, shared by {sharing}")
-        lines += ["", pump]
+        lines += ["", _pump_line(spec.supply, sharing)]
     lines += [
         "",
         f"end-effector: {ee.mass:g} kg at offset {_vec(ee.offset)} m"
@@ -57,3 +54,17 @@ def _row(joint: Joint) -> tuple[str, ...]:
 
 def _vec(values: tuple[float, ...]) -> str:
     return "[" + ", ".join(f"{v:g}" for v in values) + "]"
+
+
+def _pump_line(supply: Supply, sharing: str) -> str:
+    """The shared pump in one line: its kind, pressure, flow and the joints on it."""
+    pressure = f"{supply.pressure / 1e6:g} MPa"
+    if supply.ls_margin is not None:
+        kind = f"load-sensing, margin {supply.ls_margin / 1e5:.4g} bar, cut-off {pressure}"
+    elif supply.displacement == "fixed":
+        kind = f"fixed displacement, relief at {pressure}"
+    else:
+        kind = pressure
+    if supply.response is not None:
+        kind += f", response {supply.response * 1e3:g} ms"
+    return f"pump: {kind}, {supply.max_flow * 6e4:.4g} L/min, shared by {sharing}"

@@ -139,6 +139,8 @@ class CascadeController:
         _require_compiled(self.model)
         self.kin = Kinematics(self.model)
         self.actuators: list[ActuatorPlugin] = [model_of(j) for j in spec.joints]
+        for actuator in self.actuators:  # a cylinder's valve as its pump feeds it
+            getattr(actuator, "on_pump", lambda supply: None)(spec.supply)
         self.rate = _given(gains.rate)
         self.dt = 1.0 / self.rate
         task = gains.task or ("pose" if spec.n >= 6 else "position")

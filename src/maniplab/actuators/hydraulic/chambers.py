@@ -9,11 +9,15 @@ from __future__ import annotations
 
 import ctypes
 from ctypes import c_double, c_void_p
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from maniplab.actuators.hydraulic.params import PinnedHydraulicActuator
 from maniplab.clib import Functions
+
+if TYPE_CHECKING:
+    from maniplab.spec.arm import Supply
 
 LAMINAR = 0.05
 """The orifices turn laminar (their flow linear in the drop) below this share of the valve's
@@ -50,8 +54,9 @@ _C = Functions({
 """The C functions (``maniplab_native/chambers.c``)."""
 
 
-def chambers_law(p: PinnedHydraulicActuator) -> ChambersLaw:
-    """The C law's parameters of a pinned cylinder's spec."""
+def chambers_law(p: PinnedHydraulicActuator, pump: Supply | None = None) -> ChambersLaw:
+    """The C law's parameters of a pinned cylinder's spec; on a load-sensing ``pump``, as the
+    section sees it alone (its own load sets the pump's pressure: the others' at tank)."""
     c, v = p.cylinder, p.valve
     dead_a, dead_b = p.chamber_dead_volumes  # hoses included
     law = ChambersLaw(
@@ -64,6 +69,8 @@ def chambers_law(p: PinnedHydraulicActuator) -> ChambersLaw:
     for k, (command, opening) in enumerate(v.characteristic or ()):
         law.point_u[k], law.point_x[k] = command, opening
     law.points = len(v.characteristic or ())
+    if pump is not None and pump.ls_margin is not None:
+        law.ls_margin, law.ls_others = pump.ls_margin, p.tank_pressure
     return law
 
 

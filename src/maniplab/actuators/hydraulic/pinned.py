@@ -40,6 +40,7 @@ from maniplab.actuators.plugin_mjcf import EnginePlugin
 if TYPE_CHECKING:
     from maniplab.actuators.drive import ForceDrive
     from maniplab.spec import ControlSpec
+    from maniplab.spec.arm import Supply
 
 MUJOCO_PLUGIN = "maniplab.cylinder"
 """The MuJoCo engine plugin (C, :mod:`maniplab_native`) that integrates the two chambers."""
@@ -91,10 +92,21 @@ class PinnedCylinder(ActuatorPlugin):
         j = self.joint
         return geometry_of(self.params, JointFrame(j.prismatic, j.axis_vector, j.limits))
 
+    pump: Supply | None = None
+    """The spec's shared pump, when a controller has told this cylinder of it (:meth:`on_pump`)."""
+
     @functools.cached_property
     def law(self) -> chambers.ChambersLaw:
-        """The parameters as the C law takes them."""
-        return chambers.chambers_law(self.params)
+        """The parameters as the C law takes them (with the load-sensing pump it is on, if any:
+        its own load sets the pump's pressure)."""
+        return chambers.chambers_law(self.params, self.pump)
+
+    def on_pump(self, supply: Supply | None) -> None:
+        """This cylinder is fed by the spec's shared pump ``supply``: a controller's view of its
+        valve (:attr:`law`) takes a load-sensing pump's pressure as its own load plus the
+        margin, not the cut-off."""
+        self.pump = supply
+        self.__dict__.pop("law", None)
 
     @property
     def command_unit(self) -> str:  # type: ignore[override]
@@ -351,6 +363,8 @@ class PinnedCylinder(ActuatorPlugin):
             sizes += (f"; compensated at {margin / 1e5:.4g} bar: at most "
                       f"{law.gain_a * math.sqrt(margin) * 6e4:.4g} L/min into A, "
                       f"{law.gain_b * math.sqrt(margin) * 6e4:.4g} L/min into B")
+        if v.flow_sharing:
+            sizes += "; flow sharing (post-compensated): its edges see the pump less the highest load"
         return [where, sizes, *self._hose_lines(), *self._rod_friction_lines(np.abs(r))]
 
     def _rod_friction_lines(self, arms: np.ndarray) -> list[str]:
