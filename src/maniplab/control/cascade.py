@@ -55,7 +55,7 @@ from maniplab.control.pid import PID
 from maniplab.control.trajectory import Trajectory
 from maniplab.control.tuning import resolve
 from maniplab.model import AnalyticModel
-from maniplab.spec import ControlSpec, ManipulatorSpec, model_of
+from maniplab.spec import ControlSpec, ManipulatorSpec, models_of
 
 MODES = ("cascade", "pid")
 
@@ -138,9 +138,7 @@ class CascadeController:
         self.model = model or AnalyticModel(spec)
         _require_compiled(self.model)
         self.kin = Kinematics(self.model)
-        self.actuators: list[ActuatorPlugin] = [model_of(j) for j in spec.joints]
-        for actuator in self.actuators:  # a cylinder's valve as its pump feeds it
-            getattr(actuator, "on_pump", lambda supply: None)(spec.supply)
+        self.actuators: list[ActuatorPlugin] = models_of(spec)
         self.rate = _given(gains.rate)
         self.dt = 1.0 / self.rate
         task = gains.task or ("pose" if spec.n >= 6 else "position")

@@ -29,7 +29,7 @@ from maniplab.actuators import ActuatorPlugin
 from maniplab.actuators.base import STANDARD_STATES
 from maniplab.control.errors import LinearizeError
 from maniplab.model import AnalyticModel
-from maniplab.spec import ManipulatorSpec, model_of
+from maniplab.spec import ManipulatorSpec, model_of, models_of
 
 
 def _states(actuators: list[ActuatorPlugin]) -> list[tuple[str, list[int]]]:
@@ -58,7 +58,7 @@ def operating_point(spec: ManipulatorSpec, q: ArrayLike, qd: ArrayLike | None = 
         LinearizeError: an actuator with states declares no steady state.
     """
     model = model or AnalyticModel(spec)
-    actuators = [model_of(j) for j in spec.joints]
+    actuators = models_of(spec)
     q = np.asarray(q, dtype=float)
     qd = np.zeros(spec.n) if qd is None else np.asarray(qd, dtype=float)
     tau = model.bias(q, qd) + _friction(spec, qd)[0]
@@ -102,7 +102,7 @@ def _friction(spec: ManipulatorSpec, qd: np.ndarray) -> tuple[np.ndarray, np.nda
 
 def names(spec: ManipulatorSpec) -> dict[str, list[str]]:
     """State, input and output names of :func:`linearize`'s system."""
-    actuators = [model_of(j) for j in spec.joints]
+    actuators = models_of(spec)
     joints = spec.joint_names
     states = [f"{joints[j]}_{name}" for name, which in _states(actuators) for j in which]
     return {
@@ -117,7 +117,7 @@ def jacobians(spec: ManipulatorSpec, point: Mapping[str, ArrayLike], *,
               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(A, B, C, D) of the plant linearised at ``point`` (see :func:`linearize`)."""
     model = model or AnalyticModel(spec)
-    actuators = [model_of(j) for j in spec.joints]
+    actuators = models_of(spec)
     n = spec.n
     q = np.asarray(point["q"], dtype=float)
     qd = np.asarray(point.get("qd", np.zeros(n)), dtype=float)

@@ -13,7 +13,7 @@ from maniplab.actuators.hydraulic.params import HydraulicActuator
 from maniplab.actuators.torque import TorqueActuator
 from maniplab.friction.params import Friction, FrictionModel
 from maniplab.schema import NonNegative, Positive, Real, Vec3
-from maniplab.spec.actuator import PluginActuator, model_of, params_of
+from maniplab.spec.actuator import PluginActuator, model_of, models_of, params_of
 from maniplab.spec.arm import (
     Axis,
     Body,
@@ -51,5 +51,6 @@ __all__ = [
     "inertia_matrix",
     "load_spec",
     "model_of",
+    "models_of",
     "params_of",
 ]

@@ -26,7 +26,7 @@ from maniplab.schema import describe, plain, translate_errors
 from maniplab.schema.translate import choices, did_you_mean
 
 if TYPE_CHECKING:
-    from maniplab.spec.arm import Joint
+    from maniplab.spec.arm import Joint, ManipulatorSpec
 
 
 @dataclasses.dataclass(frozen=True)
@@ -90,6 +90,16 @@ def model_of(joint: Joint) -> ActuatorPlugin:
         raise PluginLookupError(f"joint {joint.name}, actuator: {actuator.problem}")
     params = params_of(actuator)
     return resolve(actuator.type).variant(params=params)(params, joint)
+
+
+def models_of(spec: ManipulatorSpec) -> list[ActuatorPlugin]:
+    """Every joint's actuator model (:func:`model_of`), each told of the spec's shared pump where
+    its model takes one (``on_pump``: a pinned cylinder's valve as a load-sensing pump feeds
+    it), as a controller or a linear model sees them."""
+    models = [model_of(joint) for joint in spec.joints]
+    for model in models:
+        getattr(model, "on_pump", lambda supply: None)(spec.supply)
+    return models
 
 
 def actuator_dict(actuator: Any) -> dict[str, Any]:
