@@ -15,11 +15,11 @@ from __future__ import annotations
 import argparse
 import warnings
 
+from bench_stiff_step import ACCURACY_WINDOW, OPEN_LOOP, cpu, deviation, open_loop
+
 import maniplab as ml
 from maniplab.mjcf_gen import accuracy
 from maniplab.mjcf_gen.accuracy import StepWarning
-
-from bench_stiff_step import ACCURACY_WINDOW, OPEN_LOOP, cpu, deviation, open_loop
 
 PUMPS = {
     "own supplies": None,

@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
-from test_cylinder_physics import PS, Q0, VALVE, Hydraulics, boom, initial
+from test_cylinder_physics import PS, Q0, Hydraulics, boom, initial
 
 import maniplab as ml
 from maniplab.sim.errors import InputError
