@@ -68,12 +68,20 @@ class PythonPlant:
                         for a in plant.actuators]
         frictions = [j.friction for j in spec.joints]
         hybrid = [f.model is ml.FrictionModel.hybrid for f in frictions]
-        self.breakaway = [f.coulomb + f.static if h else 0.0 for f, h in zip(frictions, hybrid)]
-        self.can_stick = [b > 0.0 for b in self.breakaway]
-        self._slip = [(j, f.coulomb, f.static, f.stribeck_velocity)
-                      for j, (f, h) in enumerate(zip(frictions, hybrid)) if h]
-        self._sticky = [(j, frictions[j].stick_velocity) for j in range(self.n)
-                        if self.can_stick[j]]
+        # a pinned cylinder's rod friction, on its joint through the lever |r| of each step
+        self._rods = {j: joint.rod_friction for j, joint in enumerate(spec.joints)
+                      if joint.rod_friction is not None}
+        self._pin_breakaway = [f.coulomb + f.static if h else 0.0
+                               for f, h in zip(frictions, hybrid)]
+        self._pin_stick = [f.stick_velocity for f in frictions]
+        self.breakaway = list(self._pin_breakaway)
+        self.can_stick = [b > 0.0 or (j in self._rods and self._rods[j].breakaway > 0.0)
+                          for j, b in enumerate(self._pin_breakaway)]
+        own = [(f.coulomb, f.static, f.stribeck_velocity) if h else (0.0, 0.0, f.stribeck_velocity)
+               for f, h in zip(frictions, hybrid)]
+        self._slip = [(j, *own[j]) for j in range(self.n) if hybrid[j] or j in self._rods]
+        self._stick_velocity = list(self._pin_stick)
+        self._lever = [0.0] * self.n
         self.lower = [j.limits[0] if j.limits else -math.inf for j in spec.joints]
         self.upper = [j.limits[1] if j.limits else math.inf for j in spec.joints]
         self._limited = [(j, self.lower[j], self.upper[j]) for j, joint in enumerate(spec.joints)
@@ -82,6 +90,7 @@ class PythonPlant:
         self._armature = self.model.dof_armature.copy()
         self._hold_inertia = plant.hold_inertia
         self._slip_acc = [b / self._hold_inertia for b in self.breakaway]
+        self._sticky = [(j, self._stick_velocity[j]) for j in range(self.n) if self.can_stick[j]]
         self.modes = [SLIP] * self.n
         self._direction = [1.0] * self.n
         self._held: list[int] = []
@@ -120,6 +129,10 @@ class PythonPlant:
                     mid = v + half * acc[j]
                     v = mid if mid * v > 0.0 else 0.5 * v
                 fric[j] = slip_force(v, self._direction[j], coulomb, static, stribeck)
+                if j in self._rods:  # the rod's, at the rod's speed v|r|, times |r|
+                    rod, a = self._rods[j], self._lever[j]
+                    fric[j] += slip_force(v * a, self._direction[j], a * rod.coulomb,
+                                          a * rod.static, rod.stribeck_velocity)
         self.data.qfrc_applied[:] = fric
         return fric
 
@@ -204,11 +217,36 @@ class PythonPlant:
                 moved = True
         return moved, limit
 
+    def levers(self) -> None:
+        """Each rod joint's lever |r| (its actuator's moment on it) at the pose of the step's
+        start, and its break-away and stick velocity with the rod's friction through it."""
+        m, d = self.model, self.data
+        mujoco.mj_fwdPosition(m, d)
+        for j, rod in self._rods.items():
+            row = m.actuator_outadr[j]
+            start, count = d.moment_rowadr[row], d.moment_rownnz[row]
+            r = sum(d.actuator_moment[k] for k in range(start, start + count)
+                    if d.moment_colind[k] == j)
+            a = abs(r)
+            self._lever[j] = a
+            if not self.can_stick[j]:
+                continue
+            held = a * rod.breakaway
+            self.breakaway[j] = self._pin_breakaway[j] + held
+            self._slip_acc[j] = self.breakaway[j] / self._hold_inertia
+            sv = self._pin_stick[j] if self._pin_breakaway[j] > 0.0 else math.inf
+            if held > 0.0:
+                sv = min(sv, rod.stick_velocity / a)
+            self._stick_velocity[j] = sv if sv < math.inf else self._pin_stick[j]
+        self._sticky = [(j, self._stick_velocity[j]) for j in range(self.n) if self.can_stick[j]]
+
     # --- the step ---------------------------------------------------------------------------
     def _start(self) -> None:
         m, d = self.model, self.data
         q0, v0 = d.qpos.tolist(), d.qvel.tolist()
         d.ctrl[:] = self._u + [0.0] * (m.nu - self.n)
+        if self._rods:
+            self.levers()
         fric = self.forces(v0)
         self.hold()
         mujoco.mj_checkPos(m, d)
@@ -227,6 +265,8 @@ class PythonPlant:
         if moved:
             self.data.qpos[:] = q1
             self.data.qvel[:] = v1
+        for j, rod in self._rods.items():  # the record has the rod's viscous force too
+            fric[j] -= rod.viscous * self._lever[j] ** 2 * v0[j]
         self.fric, self.limit = fric, limit
 
     def step(self, u: Sequence[float]) -> None:
