@@ -160,3 +160,37 @@ def test_an_arm_without_gravity_or_holding_range_is_one_line(capsys, tmp_path: P
     assert np.isinf(unlimited.payload).all() and (unlimited.joint == -1).all()
     code, _, err = run_cli(capsys, "loadchart", "planar2", "-o", str(tmp_path / "p.png"))
     assert code == 2 and err.count("\n") == 1 and "give torque sources a limit" in err
+
+
+def test_a_working_pressure_rating_and_a_safety_factor_against_the_closed_form() -> None:
+    """Rated at 16 MPa with a factor of 1.25: A (p / S) = g cos θ (m_l L/2 + m L) at the largest
+    payload m, every pose; and the rule says so."""
+    rating, safety = 16.0e6, 1.25
+    chart = load_chart(ml.ManipulatorSpec.from_dict(BOOM), points=25, rating=rating,
+                       safety=safety)
+    theta = chart.q[:, 0]
+    expected = (AREA * rating / safety / (G * np.cos(theta)) - M_LINK * L / 2) / L
+    np.testing.assert_allclose(chart.payload, expected, rtol=1e-9)
+    assert "working pressure 16 MPa" in chart.rule and "safety factor of 1.25" in chart.rule
+
+
+def test_a_rating_at_the_relief_setting_is_the_default_chart_of_pinned_cylinders() -> None:
+    """patu655's cylinders rated at their relief setting chart exactly as by default; rated
+    lower, every pose a cylinder limits holds less (and a torque or lumped joint is unchanged)."""
+    default = load_chart("patu655", points=5)
+    relief = ml.resolve_spec("patu655").joints[1].actuator.relief_pressure
+    same = load_chart("patu655", points=5, rating=relief)
+    np.testing.assert_array_equal(same.payload, default.payload)
+    lower = load_chart("patu655", points=5, rating=0.8 * relief)
+    limited = default.payload > 0.0
+    assert np.all(lower.payload[limited] < default.payload[limited])
+
+
+@pytest.mark.parametrize("option, value, words", [("--rating", "-2e7", "rating -20000000.0"),
+                                                  ("--safety", "0.8", "safety factor 0.8")])
+def test_a_bad_rating_or_safety_factor_is_one_line(capsys, tmp_path: Path, option: str,
+                                                   value: str, words: str) -> None:
+    code, _, err = run_cli(capsys, "loadchart", "patu655", f"{option}={value}", "-o",
+                           str(tmp_path / "c.json"))
+    assert code == 2 and words in err and err.count("\n") == 1
+    assert not (tmp_path / "c.json").exists()

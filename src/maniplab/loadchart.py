@@ -14,6 +14,12 @@ largest payload at q is the smallest m at which one joint's load leaves its rang
 joint limits it. Friction is not counted (it helps to hold, by an amount a chart cannot rely on),
 nor are the limit stops (the poses lie strictly inside the joint limits).
 
+With a working pressure ``rating`` every hydraulic actuator holds up to that pressure instead
+of its relief's setting, and with a ``safety`` factor every holding range is divided by it: the
+chart then rates each pose at the largest payload held within the rating over the factor (as
+crane makers rate holding at a working pressure with a margin, rather than at the relief valve,
+which is a protection, not a rating).
+
 The chart is drawn as crane makers draw theirs: payload over horizontal reach (distance from the
 vertical axis through the base) and height (along -g).
 """
@@ -61,6 +67,17 @@ class LoadChart:
     payload: np.ndarray
     joint: np.ndarray
     gravity: np.ndarray
+    rating: float | None = None
+    safety: float = 1.0
+
+    @property
+    def rule(self) -> str:
+        """What the chart counts on, in words."""
+        pressure = ("up to its relief pressure (else supply)" if self.rating is None else
+                    f"up to the working pressure {self.rating / 1e6:g} MPa")
+        factor = "" if self.safety == 1.0 else f", every holding range over a safety factor " \
+                                                f"of {self.safety:g}"
+        return f"valves closed; each cylinder {pressure}{factor}; friction not counted"
 
     @property
     def height(self) -> np.ndarray:
@@ -84,8 +101,7 @@ class LoadChart:
         return {
             "spec": self.spec.name,
             "joints": list(self.spec.joint_names),
-            "rule": "valves closed; each cylinder up to its relief pressure (else supply); "
-                    "friction not counted",
+            "rule": self.rule,
             "poses": [{"q": self.q[k].tolist(), "reach_m": float(reach[k]),
                        "height_m": float(height[k]),
                        "payload_kg": float(self.payload[k]) if math.isfinite(self.payload[k])
@@ -94,20 +110,29 @@ class LoadChart:
         }
 
 
-def load_chart(spec: SpecLike, *, points: int | None = None,
-               max_poses: int = MAX_POSES) -> LoadChart:
+def load_chart(spec: SpecLike, *, points: int | None = None, max_poses: int = MAX_POSES,
+               rating: float | None = None, safety: float = 1.0) -> LoadChart:
     """The load chart of ``spec`` over a grid of poses within its joint limits.
 
     Args:
         spec: a spec, a spec file or a built-in name.
         points: grid points per joint (default: as many as keep the grid within ``max_poses``).
         max_poses: bound on the grid's size when ``points`` is not given.
+        rating: a working pressure rating, Pa: every hydraulic actuator holds up to it instead
+            of its relief's setting (None: the relief's, else the supply's).
+        safety: a safety factor (at least 1) every holding range is divided by.
 
     Raises:
-        LoadChartError: the arm has no gravity, or an actuator declares no holding range.
+        LoadChartError: the arm has no gravity, an actuator declares no holding range, or a bad
+            rating or safety factor.
     """
     spec = resolve_spec(spec)
-    statics = Statics(spec)
+    if rating is not None and not (math.isfinite(rating) and rating > 0.0):
+        raise LoadChartError(f"rating {rating!r}: a working pressure is a positive number of "
+                             "pascals")
+    if not (math.isfinite(safety) and safety >= 1.0):
+        raise LoadChartError(f"safety factor {safety!r}: it must be a number of at least 1")
+    statics = Statics(spec, rating, safety)
     idle = statics.idle_joints()
     if points is None:
         active = max(1, spec.n - len(idle))
@@ -117,7 +142,8 @@ def load_chart(spec: SpecLike, *, points: int | None = None,
     positions = np.array([p for _, _, p in loads])
     best = [statics.largest(g, h, q) for (g, h, _), q in zip(loads, poses)]
     return LoadChart(spec, poses, positions, np.array([m for m, _ in best]),
-                     np.array([j for _, j in best], dtype=int), statics.gravity.copy())
+                     np.array([j for _, j in best], dtype=int), statics.gravity.copy(),
+                     rating, safety)
 
 
 def grid(spec: ManipulatorSpec, points: int, idle: frozenset[int] = frozenset()) -> np.ndarray:
@@ -139,8 +165,9 @@ def grid(spec: ManipulatorSpec, points: int, idle: frozenset[int] = frozenset())
 class Statics:
     """The gravity loads of an arm at rest, from its MuJoCo model without the payload."""
 
-    def __init__(self, spec: ManipulatorSpec) -> None:
-        self.spec = spec
+    def __init__(self, spec: ManipulatorSpec, rating: float | None = None,
+                 safety: float = 1.0) -> None:
+        self.spec, self.rating, self.safety = spec, rating, safety
         self.gravity = np.asarray(spec.gravity, dtype=float)
         if not np.any(self.gravity):
             raise LoadChartError(f"{_where(spec)}no gravity (gravity: [0, 0, 0]): nothing to "
@@ -202,11 +229,12 @@ class Statics:
         pairs = []
         for actuator, x in zip(self.actuators, q):
             try:
-                pairs.append(actuator.holding_range(float(x)))
+                pairs.append(actuator.holding_range(float(x)) if self.rating is None else
+                             actuator.rated_holding_range(float(x), self.rating))
             except ManiplabError as exc:
                 raise LoadChartError(f"{_where(self.spec)}{exc}") from None
         low, high = np.array(pairs, dtype=float).T
-        return low, high
+        return low / self.safety, high / self.safety
 
     def largest(self, g: np.ndarray, h: np.ndarray, q: np.ndarray) -> tuple[float, int]:
         """The largest payload held at q (kg) and the joint that limits it (-1: none)."""

@@ -362,6 +362,12 @@ class ActuatorPlugin(abc.ABC):
         raise CapabilityError(f"{self.label()} declares no holding range "
                               "(ActuatorPlugin.holding_range), so no load chart counts on it")
 
+    def rated_holding_range(self, q: float, pressure: float) -> tuple[float, float]:
+        """:meth:`holding_range` with a hydraulic actuator's chambers up to a working pressure
+        rating ``pressure`` (Pa) instead of its relief's setting; an actuator that is not
+        hydraulic has no pressure to rate, and gives its holding range (the default)."""
+        return self.holding_range(q)
+
     @classmethod
     def has_steady(cls) -> bool:
         """Whether the class implements :meth:`steady`."""

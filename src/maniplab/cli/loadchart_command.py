@@ -25,6 +25,12 @@ def add(sub: argparse._SubParsersAction) -> None:
                                             "(default: out/loadchart.png)")
     chart.add_argument("--points", type=positive_int, metavar="N",
                        help="grid points per joint (default: a grid of at most 20,000 poses)")
+    chart.add_argument("--rating", type=float, metavar="PA",
+                       help="a working pressure rating, Pa: every cylinder holds up to it "
+                            "instead of its relief's setting")
+    chart.add_argument("--safety", type=float, default=1.0, metavar="F",
+                       help="a safety factor (>= 1) every holding range is divided by "
+                            "(default: 1)")
     chart.set_defaults(func=_cmd_loadchart)
 
 
@@ -34,7 +40,7 @@ def _cmd_loadchart(args: argparse.Namespace) -> int:
     from maniplab.atomic import write_text
     from maniplab.loadchart import load_chart
 
-    chart = load_chart(args.spec, points=args.points)
+    chart = load_chart(args.spec, points=args.points, rating=args.rating, safety=args.safety)
     if args.output.suffix.lower() == ".json":
         write_text(args.output, json.dumps(chart.to_dict(), indent=1) + "\n")
     else:

@@ -43,9 +43,9 @@ def load_chart_figure(chart: LoadChart, bins: tuple[int, int] = BINS) -> Figure:
                        linestyles="--", linewidths=1.2)
     ax.set_xlabel("horizontal reach [m]")
     ax.set_ylabel("height [m]")
-    ax.set_title(f"{chart.spec.name}: largest payload held, valves closed\n"
-                 f"(each cylinder up to its relief pressure, else supply; red dashed: the rated "
-                 f"{chart.spec.end_effector.mass * scale:.3g} {unit})", fontsize=9)
+    ax.set_title(f"{chart.spec.name}: largest payload held\n({chart.rule.split('; friction')[0]}"
+                 f"; red dashed: the rated {chart.spec.end_effector.mass * scale:.3g} {unit})",
+                 fontsize=9)
     return fig
 
 

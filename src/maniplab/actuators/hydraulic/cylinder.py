@@ -95,7 +95,11 @@ class HydraulicCylinder(ActuatorPlugin):
         """±A p_max with the valve closed: p_max the relief's setting (the relief opens above it),
         else the supply pressure."""
         p = self.params
-        force = p.area * (p.relief_pressure or p.supply_pressure)
+        return self.rated_holding_range(q, p.relief_pressure or p.supply_pressure)
+
+    def rated_holding_range(self, q: float, pressure: float) -> tuple[float, float]:
+        """±A p with ΔP up to the rating p (Pa)."""
+        force = self.params.area * pressure
         return -force, force
 
     def bounds(self) -> list[Bound]:

@@ -151,8 +151,13 @@ class PinnedCylinder(ActuatorPlugin):
     def holding_range(self, q: float) -> tuple[float, float]:
         """The joint forces held with the valve closed: one chamber at the relief's setting (or
         the supply's), the other at tank, times r(q)."""
-        p, c = self.params, self.params.cylinder
-        top, low = p.holding_pressure, p.tank_pressure
+        return self.rated_holding_range(q, self.params.holding_pressure)
+
+    def rated_holding_range(self, q: float, pressure: float) -> tuple[float, float]:
+        """The holding range with one chamber up to the rating ``pressure`` (Pa), the other at
+        tank, times r(q)."""
+        c = self.params.cylinder
+        top, low = pressure, self.params.tank_pressure
         push, pull = top * c.cap_area - low * c.rod_area, low * c.cap_area - top * c.rod_area
         r = float(self.geometry.arm(q))
         return (pull * r, push * r) if r > 0.0 else (push * r, pull * r)
