@@ -6,6 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 import maniplab as ml
 from maniplab.cli import main
@@ -143,3 +144,25 @@ def test_control_exits_3_naming_joint_cause_and_setting(tmp_path: Path, capsys) 
     assert code == 3
     assert err[-1].startswith("maniplab control: the move missed its tolerances")
     assert "control.position" in err[-1] or "joint" in err[-1]
+
+
+def test_an_impact_on_a_limit_is_reported_with_its_speed_and_energy() -> None:
+    """crane3's luff driven at full command into its upper limit: one impact, at the last
+    speed recorded before the stop, with ½ M_jj v² from the analytic model's mass matrix at the
+    stop (independent of MuJoCo's); a rating above it silences the finding."""
+    from maniplab.sim.health import impacts
+
+    inputs = {"luff": ml.signals.step(1.0, 0.1)}
+    start = {"q": [0.0, -0.3, 0.5], "dP": "gravity"}
+    run = ml.simulate("crane3", duration=1.6, inputs=inputs, initial=start)
+    ((joint, t, speed, energy),) = impacts(run)
+    k = int(np.searchsorted(run.t, t))
+    before = run.qd[k - 3:k, 1]
+    assert joint == "luff" and speed == pytest.approx(abs(before[before != 0.0][-1]), rel=1e-12)
+    mass = ml.AnalyticModel(run.spec).M(run.q[k])[1, 1]
+    assert energy == pytest.approx(0.5 * mass * speed**2, rel=1e-9)
+    (finding,) = [f for f in run.health.findings if f.check == "impact"]
+    assert finding.joint == "luff" and f"{speed:.3g} rad/s" in finding.cause
+    rated = ml.simulate("crane3", duration=1.6, inputs=inputs, initial=start,
+                        overrides={"joints.luff.stop_energy": 2.0 * energy})
+    assert not [f for f in rated.health.findings if f.check == "impact"]

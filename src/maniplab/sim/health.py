@@ -16,6 +16,10 @@ file. The checks:
   the move's window and tolerances, written by a controller that declares a reference): the
   end-effector's final error, and its RMS error over the move, within the tolerances (mm): a
   run that ends far from its target is never "ok";
+- **impact**: a joint that reaches one of its limits moving with more kinetic energy than its
+  end stops may take (``joints[].stop_energy``, default IMPACT_ENERGY): ½ M_jj(q) v², M the arm's
+  mass matrix at the pose (MuJoCo's, payload included) and v the last recorded speed before the
+  stop; the finding names the joint, the speed and the energy;
 - **diverging**: in a closed-loop run (one with the controller's reference ``x_d`` and task
   error ``e_x``), once the reference has come to rest: the error over the second half of that
   rest more than DIVERGING times the first half's, and above 1 mm: the loop is unstable.
@@ -53,6 +57,10 @@ DIVERGING = 2.0
 
 REST = 0.2
 """The least time, s, the reference must rest for the divergence check."""
+
+IMPACT_ENERGY = 100.0
+"""J: the kinetic energy at a limit beyond which an impact is reported, unless the joint's
+``stop_energy`` says otherwise."""
 
 
 class Severity(enum.Enum):
@@ -120,7 +128,7 @@ def assess(run: Run) -> Health:
     hold = np.append(np.diff(t), 0.0)  # each sample's command holds until the next
     span = float(t[-1] - t[0])
     findings = [*_saturation(run, hold, span), *_bounds(run), *_pinned(run, hold, span),
-                *_still(run, hold), *_diverging(run), *_tracking(run)]
+                *_still(run, hold), *_impacts(run), *_diverging(run), *_tracking(run)]
     findings.sort(key=lambda f: f.severity is not Severity.FAILURE)
     return Health(tuple(findings))
 
@@ -207,6 +215,63 @@ def _still(run: Run, hold: np.ndarray) -> list[Finding]:
                 f"{hold[pushed[:, j]].sum():.3g} s, it did not move at all",
                 "check the actuator's parameters against the load (area, supply pressure, "
                 "limit) and the joint's friction"))
+    return out
+
+
+def impacts(run: Run) -> list[tuple[str, float, float, float]]:
+    """Every arrival of a joint at one of its limits while moving: (joint, time s, speed rad/s
+    or m/s, kinetic energy ½ M_jj v² J), the speed the last recorded before the stop."""
+    if "mode" not in run:
+        return []
+    mode, qd = np.asarray(run["mode"]), np.asarray(run.qd)
+    on = (mode == FrictionMode.AT_LOWER.value) | (mode == FrictionMode.AT_UPPER.value)
+    # the step that reaches the stop zeroes the speed the next sample records, a sample before
+    # the mode says so: the speed is the last non-zero one of the few samples before
+    arrivals = []
+    for a, j in np.argwhere(on[1:] & ~on[:-1]) + [1, 0]:
+        moving = np.flatnonzero(qd[max(0, a - 3):a, j] != 0.0)
+        if moving.size:
+            arrivals.append((a, j, float(qd[max(0, a - 3) + moving[-1], j])))
+    if not arrivals:
+        return []
+    import mujoco
+
+    from maniplab.errors import ManiplabError
+    from maniplab.mjcf_gen import build_model
+
+    try:
+        model = build_model(run.spec)
+    except ManiplabError:  # a stored run's plugin that is not loaded: no mass matrix
+        return []
+    data = mujoco.MjData(model)
+    out = []
+    for a, j, v in arrivals:
+        data.qpos[:] = np.asarray(run.q)[a]
+        mujoco.mj_forward(model, data)
+        full = np.zeros((model.nv, model.nv))
+        mujoco.mj_fullM(model, data, full)
+        out.append((run.spec.joint_names[j], float(run.t[a]), abs(v),
+                    0.5 * float(full[j, j]) * v * v))
+    return out
+
+
+def _impacts(run: Run) -> list[Finding]:
+    worst: dict[str, tuple[float, float, float]] = {}
+    for joint, t, speed, energy in impacts(run):
+        if energy > worst.get(joint, (0.0, 0.0, -1.0))[2]:
+            worst[joint] = (t, speed, energy)
+    out = []
+    for joint, (t, speed, energy) in worst.items():
+        spec_joint = run.spec.joint(joint)
+        allowed = spec_joint.stop_energy or IMPACT_ENERGY
+        if energy > allowed:
+            unit = "m/s" if spec_joint.prismatic else "rad/s"
+            out.append(Finding(
+                Severity.WARNING, "impact", joint,
+                f"hit its limit at t = {t:.3g} s at {speed:.3g} {unit} with {energy:.3g} J, "
+                f"more than the {allowed:.3g} J its stops may take",
+                "slow it before the stop (the move or the command), give its cylinder end "
+                "cushions, or set the stops' rating (joints[].stop_energy)"))
     return out
 
 

@@ -241,6 +241,8 @@ class Joint:
         axis: x, y or z, in base axes.
         limits: (lower, upper) in rad or m, or None.
         body: the connecting body, or None (l_b = 0, m_b = 0).
+        stop_energy: the kinetic energy its end stops may take at an impact, J: a run whose
+            joint reaches a limit with more is reported (None: the default, 100 J).
     """
 
     EXAMPLE: ClassVar[str] = "name: q1, type: R, axis: z"
@@ -252,6 +254,7 @@ class Joint:
     body: Body | None = None
     actuator: Actuator = TorqueActuator()
     friction: Friction = Friction()
+    stop_energy: Positive | None = None
 
     @field_validator("limits")
     @classmethod
