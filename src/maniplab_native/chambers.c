@@ -73,13 +73,13 @@ static int one_step(const ml_chambers* c, const double* y0, double u, double s0,
   return status;
 }
 
-/* Adds to energy the powers at (y, length rate, supply) times `weight` (s). */
-static void add_powers(const ml_chambers* c, const double* y, double sdot, double supply,
-                       double weight, double* energy) {
+/* Adds to energy the powers at (y, length, its rate, supply) times `weight` (s). */
+static void add_powers(const ml_chambers* c, const double* y, double s, double sdot,
+                       double supply, double weight, double* energy) {
   ml_chambers law = *c;
   double powers[ML_ACCUMULATED];
   law.supply = supply;
-  ml_chambers_powers(&law, y[0], y[1], y[2], sdot, powers);
+  ml_chambers_powers(&law, y[0], y[1], y[2], s, sdot, powers);
   for (int k = 0; k < ML_ACCUMULATED; k++) energy[k] += weight * powers[k];
 }
 
@@ -92,10 +92,10 @@ int ml_chambers_step_energy(const ml_chambers* c, const double* y0, double u, do
     double a = (double)k / substeps, b = (double)(k + 1) / substeps;
     double ra = sdot0 + a * (sdot1 - sdot0), rb = sdot0 + b * (sdot1 - sdot0);
     double pa = ps0 + a * (supply1 - ps0), pb = ps0 + b * (supply1 - ps0);
-    if (energy) add_powers(c, y, ra, pa, half, energy);
-    status |= one_step(c, y, u, s0 + a * (s1 - s0), ra, pa, s0 + b * (s1 - s0), rb, pb,
-                       h / substeps, y1);
-    if (energy) add_powers(c, y1, rb, pb, half, energy);
+    double sa = s0 + a * (s1 - s0), sb = s0 + b * (s1 - s0);
+    if (energy) add_powers(c, y, sa, ra, pa, half, energy);
+    status |= one_step(c, y, u, sa, ra, pa, sb, rb, pb, h / substeps, y1);
+    if (energy) add_powers(c, y1, sb, rb, pb, half, energy);
     for (int i = 0; i < 3; i++) y[i] = y1[i];
   }
   return status;

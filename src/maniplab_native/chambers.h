@@ -76,6 +76,8 @@ typedef struct {
                                  the highest load on the pump (flow sharing, LUDV): every
                                  section's edge sees the pump's pressure less that load; 0: a
                                  local compensator before the edge (or none) */
+  double cushion_length;      /* m: the end cushions' length at both ends (0: none) */
+  double cushion_gain;        /* K of a cushion's throttle at the very end, m^3/(s sqrt(Pa)) */
 } ml_chambers;
 
 /* The spool's opening the command u asks for (its steady position), -1..1: the characteristic's
@@ -217,6 +219,12 @@ static inline double ml_supply_follows(const ml_chambers* c, double pa, double p
   return own > c->ls_others && own + c->ls_margin < c->supply ? 1.0 : 0.0;
 }
 
+/* The piston's travel from fully retracted at length s, within the stroke, m. */
+static inline double ml_travel(const ml_chambers* c, double s) {
+  double y = s - c->min_length;
+  return y < 0.0 ? 0.0 : (y > c->stroke ? c->stroke : y);
+}
+
 /* The chamber volumes (V_A, V_B) at length s, m^3. */
 static inline void ml_chamber_volumes(const ml_chambers* c, double s, double* va, double* vb) {
   double y = s - c->min_length;
@@ -225,7 +233,42 @@ static inline void ml_chamber_volumes(const ml_chambers* c, double s, double* va
   *vb = c->dead_b + c->area_b * (c->stroke - y);
 }
 
-/* The valve's flows into the chambers (Q_A, Q_B) at opening x, m^3/s. */
+/* The gain of a draining chamber's way out at `distance` (m) from the end the piston moves
+   towards: the meter-out edge's `edge` alone, or within an end cushion in series with the
+   cushion's throttle, whose gain K_c / (1 - d/l) falls from wide open as the spear enters to K_c
+   at the very end (1/K^2 = 1/edge^2 + (1 - d/l)^2 / K_c^2: continuous with its slope there). */
+static inline double ml_cushioned(const ml_chambers* c, double edge, double distance) {
+  double l = c->cushion_length;
+  if (!(l > 0.0) || distance >= l || edge <= 0.0) return edge;
+  double share = 1.0 - (distance > 0.0 ? distance : 0.0) / l;
+  double throttle = share / c->cushion_gain;
+  return edge / sqrt(1.0 + edge * edge * throttle * throttle);
+}
+
+/* d(ml_cushioned)/d(edge): 1 / (1 + edge^2 t^2)^(3/2), t the throttle's 1/K (1 outside). */
+static inline double ml_cushioned_slope(const ml_chambers* c, double edge, double distance) {
+  double l = c->cushion_length;
+  if (!(l > 0.0) || distance >= l) return 1.0;
+  double share = 1.0 - (distance > 0.0 ? distance : 0.0) / l;
+  double t = share / c->cushion_gain, r = 1.0 + edge * edge * t * t;
+  return 1.0 / (r * sqrt(r));
+}
+
+/* The valve's flows into the chambers (Q_A, Q_B) at opening x and piston travel y (m from fully
+   retracted), m^3/s: ml_valve_edges with the end cushions (the cap side drains through the
+   retracted end's, the rod side through the extended end's). */
+static inline void ml_valve_edges_at(const ml_chambers* c, double x, double pa, double pb,
+                                     double y, double* qa, double* qb) {
+  double open = x > 0.0 ? x : 0.0, reverse = x < 0.0 ? -x : 0.0;
+  double l = c->laminar;
+  double ps = ml_supply_seen(c, pa, pb, x);
+  *qa = c->gain_a * open * ml_meter_in_root(c, ml_metering_drop(c, ps, pa)) -
+        ml_cushioned(c, c->out_a * reverse, y) * ml_orifice_root(pa - c->tank, l);
+  *qb = c->gain_b * reverse * ml_meter_in_root(c, ml_metering_drop(c, ps, pb)) -
+        ml_cushioned(c, c->out_b * open, c->stroke - y) * ml_orifice_root(pb - c->tank, l);
+}
+
+/* The valve's flows into the chambers (Q_A, Q_B) at opening x, m^3/s (away from the cushions). */
 static inline void ml_valve_edges(const ml_chambers* c, double x, double pa, double pb,
                                   double* qa, double* qb) {
   double open = x > 0.0 ? x : 0.0, reverse = x < 0.0 ? -x : 0.0;
@@ -250,7 +293,7 @@ static inline void ml_chambers_rates_law(const ml_chambers* c, double pa, double
                                          double u, double s, double sdot, double* rates) {
   double va, vb, qa, qb;
   ml_chamber_volumes(c, s, &va, &vb);
-  ml_valve_edges(c, x, pa, pb, &qa, &qb);
+  ml_valve_edges_at(c, x, pa, pb, ml_travel(c, s), &qa, &qb);
   double leak = c->leakage * (pa - pb);
   rates[0] = c->bulk_modulus / va * (qa - c->area_a * sdot - leak);
   rates[1] = c->bulk_modulus / vb * (qb + c->area_b * sdot + leak);
@@ -273,14 +316,18 @@ static inline void ml_chambers_jacobian_law(const ml_chambers* c, double pa, dou
   double ps = ml_supply_seen(c, pa, pb, x), follows = 1.0 - ml_supply_follows(c, pa, pb, x);
   if (forward) { /* P -> A, B -> T */
     double up = ml_metering_drop(c, ps, pa), down = pb - c->tank;
+    double y = c->stroke - ml_travel(c, s), edge = c->out_b * (x > 0.0 ? x : 0.0);
+    double gain = ml_cushioned(c, edge, y);
     dqa_dpa = c->gain_a * x * ml_meter_in_slope(c, up) * ml_metering_slope(c, pa) * follows;
     dqa_dx = c->gain_a * ml_meter_in_root(c, up);
-    dqb_dpb = -c->out_b * x * ml_orifice_slope(down, l);
-    dqb_dx = -c->out_b * ml_orifice_root(down, l);
+    dqb_dpb = x > 0.0 ? -gain * ml_orifice_slope(down, l) : -c->out_b * x * ml_orifice_slope(down, l);
+    dqb_dx = -c->out_b * ml_cushioned_slope(c, edge, y) * ml_orifice_root(down, l);
   } else {       /* P -> B, A -> T */
     double up = ml_metering_drop(c, ps, pb), down = pa - c->tank;
-    dqa_dpa = c->out_a * x * ml_orifice_slope(down, l);
-    dqa_dx = c->out_a * ml_orifice_root(down, l);
+    double y = ml_travel(c, s), edge = c->out_a * (x < 0.0 ? -x : 0.0);
+    double gain = ml_cushioned(c, edge, y);
+    dqa_dpa = x < 0.0 ? -gain * ml_orifice_slope(down, l) : c->out_a * x * ml_orifice_slope(down, l);
+    dqa_dx = c->out_a * ml_cushioned_slope(c, edge, y) * ml_orifice_root(down, l);
     dqb_dpb = -c->gain_b * x * ml_meter_in_slope(c, up) * ml_metering_slope(c, pb) * follows;
     dqb_dx = -c->gain_b * ml_meter_in_root(c, up);
   }
@@ -300,18 +347,19 @@ static inline void ml_chambers_jacobian_law(const ml_chambers* c, double pa, dou
    ml_chambers_bound_energy): what the supply delivered through this section (at the pressure
    its meter-in edge sees), the losses across the meter-in edge's orifice, its compensator, the
    meter-out edge, the piston's leakage, the relief and anti-cavitation valves, the energy the
-   return oil carries into the tank line (Pt Q), the work on the piston ((pA A_A - pB A_B) ds/dt
+   return oil carries into the tank line (Pt Q), the loss in the end cushions' throttles, the work
+   on the piston ((pA A_A - pB A_B) ds/dt
    with the pressures within their bounds, as the mechanics sees them; negative where the load
    drives it) and the energy put into compressing the oil
    (pA V_A dpA/dt + pB V_B dpB/dt) / E. At each instant
 
      pump = meter_in + compensator + meter_out + leakage + relief + anticavitation + tank + work
-            + compression,
+            + compression + cushion,
 
    which is the chambers' continuity multiplied by their pressures: the balance closes by the
    equations, and a missing flow would break it. */
 enum { ML_E_PUMP, ML_E_METER_IN, ML_E_COMPENSATOR, ML_E_METER_OUT, ML_E_LEAKAGE, ML_E_RELIEF,
-       ML_E_ANTICAVITATION, ML_E_TANK, ML_E_WORK, ML_E_COMPRESSION, ML_ENERGIES };
+       ML_E_ANTICAVITATION, ML_E_TANK, ML_E_WORK, ML_E_COMPRESSION, ML_E_CUSHION, ML_ENERGIES };
 
 /* After the energies, the time integral of the supply pressure this section sees (Pa s): a fixed
    displacement pump delivers Q_max at it, the flow its sections do not take over its relief. */
@@ -321,9 +369,9 @@ enum { ML_E_PUMP, ML_E_METER_IN, ML_E_COMPENSATOR, ML_E_METER_OUT, ML_E_LEAKAGE,
 /* The powers (W) of the energy terms at one instant (the relief and anti-cavitation valves act
    at the bounds, ml_chambers_bound_energy), and the supply pressure: powers[ML_ACCUMULATED]. */
 static inline void ml_chambers_powers(const ml_chambers* c, double pa, double pb, double x,
-                                      double sdot, double* powers) {
-  double ps = ml_supply_seen(c, pa, pb, x), qa, qb;
-  ml_valve_edges(c, x, pa, pb, &qa, &qb);
+                                      double s, double sdot, double* powers) {
+  double ps = ml_supply_seen(c, pa, pb, x), qa, qb, y = ml_travel(c, s);
+  ml_valve_edges_at(c, x, pa, pb, y, &qa, &qb);
   double fed = x > 0.0 ? pa : pb, drained = x > 0.0 ? pb : pa;
   double in = x > 0.0 ? qa : (x < 0.0 ? qb : 0.0), out = x > 0.0 ? -qb : (x < 0.0 ? -qa : 0.0);
   double drop = ps - fed, leak = c->leakage * (pa - pb);
@@ -333,7 +381,18 @@ static inline void ml_chambers_powers(const ml_chambers* c, double pa, double pb
   powers[ML_E_PUMP] = ps * in;
   powers[ML_E_METER_IN] = seen * in;
   powers[ML_E_COMPENSATOR] = (drop - seen) * in;
-  powers[ML_E_METER_OUT] = (drained - c->tank) * out;
+  /* within an end cushion the drained chamber's drop splits between the cushion's throttle and
+     the meter-out edge in series: the throttle's share is e^2 t^2 / (1 + e^2 t^2) (each
+     orifice's drop is Q^2 over its gain squared; e the edge's gain, 1/t the throttle's) */
+  double outflow = (drained - c->tank) * out, cushioned = 0.0;
+  double l = c->cushion_length, distance = x > 0.0 ? c->stroke - y : y;
+  if (l > 0.0 && distance < l && out != 0.0) {
+    double e = (x > 0.0 ? c->out_b : c->out_a) * fabs(x);
+    double t = (1.0 - (distance > 0.0 ? distance : 0.0) / l) / c->cushion_gain;
+    cushioned = outflow * e * e * t * t / (1.0 + e * e * t * t);
+  }
+  powers[ML_E_METER_OUT] = outflow - cushioned;
+  powers[ML_E_CUSHION] = cushioned;
   powers[ML_E_LEAKAGE] = (pa - pb) * leak;
   powers[ML_E_TANK] = c->tank * out;
   powers[ML_E_COMPRESSION] = pa * (qa - c->area_a * sdot - leak) + pb * (qb + c->area_b * sdot + leak);

@@ -73,7 +73,7 @@ static const char* kAttributes[] = {
     "area_a", "area_b", "dead_a", "dead_b", "min_length", "stroke", "bulk_modulus", "leakage",
     "gain_a", "gain_b", "laminar", "supply_pressure", "tank_pressure", "relief_pressure",
     "valve_tau", "current_limit", "pump_flow", "out_a", "out_b", "compensator_margin",
-    "pump_ls_margin", "deadband", "characteristic", "pump_response", "flow_sharing"};
+    "pump_ls_margin", "deadband", "characteristic", "pump_response", "flow_sharing", "cushion"};
 
 static int required(const mjModel* m, int instance, const char* key, double* value, int positive) {
   return ml_config_required(m, instance, PLUGIN, key, value, positive);
@@ -144,6 +144,18 @@ static int read_law(const mjModel* m, int instance, ml_chambers* c) {
     return -1;
   }
   c->post = sharing;
+  double cushion[2];
+  int count = ml_config_numbers(m, instance, "cushion", cushion, 2);
+  if (count < 0) return -1;
+  if (count) {
+    if (count != 2 || !(cushion[0] > 0.0) || !(cushion[1] > 0.0) || !(cushion[0] < c->stroke)) {
+      mju_warning(PLUGIN ": cushion needs 'length gain', both positive, the length below the "
+                  "stroke %g m", c->stroke);
+      return -1;
+    }
+    c->cushion_length = cushion[0];
+    c->cushion_gain = cushion[1];
+  }
   c->relief = 0.0;
   int has_relief = ml_config_number(m, instance, "relief_pressure", &c->relief);
   if (has_relief < 0) return -1;

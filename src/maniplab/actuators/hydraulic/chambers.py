@@ -36,7 +36,7 @@ class ChambersLaw(ctypes.Structure):
         "leakage", "gain_a", "gain_b", "laminar", "supply", "tank", "relief", "inv_tau",
         "inv_current", "out_a", "out_b", "margin", "ls_margin", "ls_others", "deadband",
         "points")), ("point_u", c_double * POINTS), ("point_x", c_double * POINTS),
-        ("post", c_double)]
+        ("post", c_double), ("cushion_length", c_double), ("cushion_gain", c_double)]
 
 
 _D = c_double
@@ -69,6 +69,8 @@ def chambers_law(p: PinnedHydraulicActuator, pump: Supply | None = None) -> Cham
     for k, (command, opening) in enumerate(v.characteristic or ()):
         law.point_u[k], law.point_x[k] = command, opening
     law.points = len(v.characteristic or ())
+    if c.cushions is not None:
+        law.cushion_length, law.cushion_gain = c.cushions.length, c.cushions.gain
     if pump is not None and pump.ls_margin is not None:
         law.ls_margin, law.ls_others = pump.ls_margin, p.tank_pressure
     return law
@@ -90,6 +92,8 @@ def plugin_config(p: PinnedHydraulicActuator) -> dict[str, float | str]:
         config["deadband"] = p.valve.deadband
     if p.valve.flow_sharing:
         config["flow_sharing"] = 1.0
+    if p.cylinder.cushions is not None:
+        config["cushion"] = f"{p.cylinder.cushions.length!r} {p.cylinder.cushions.gain!r}"
     if p.valve.characteristic is not None:
         config["characteristic"] = " ".join(repr(float(v)) for point in p.valve.characteristic
                                             for v in point)

@@ -117,6 +117,30 @@ class RodFriction:
 
 
 @validated
+class Cushions:
+    """A cylinder's end cushions, the same at both ends: over the last ``length`` of the stroke a
+    spear enters the outlet and the leaving oil passes a throttle, which brakes the piston.
+
+    Attributes:
+        length: the cushion's length, m (a datasheet's "cushion length", 20 to 60 mm).
+        nominal_flow: the throttle's flow at the very end of the stroke and
+            ``nominal_pressure_drop``, m³/s (the cushion needle's setting).
+        nominal_pressure_drop: Pa.
+    """
+
+    EXAMPLE: ClassVar[str] = "length: 0.03, nominal_flow: 5.0e-5, nominal_pressure_drop: 1.0e6"
+
+    length: Positive
+    nominal_flow: Positive
+    nominal_pressure_drop: Positive = 1.0e6
+
+    @property
+    def gain(self) -> float:
+        """K of the throttle at the very end, m³/(s·√Pa)."""
+        return self.nominal_flow / self.nominal_pressure_drop ** 0.5
+
+
+@validated
 class Cylinder:
     """A cylinder's dimensions.
 
@@ -147,6 +171,7 @@ class Cylinder:
     dead_volumes: Annotated[tuple[Positive, Positive], BeforeValidator(sequence)]
     double_rod: bool = False
     hoses: Hoses | None = None
+    cushions: Cushions | None = None
     friction: RodFriction | None = None
 
     @field_validator("rod")
@@ -156,6 +181,15 @@ class Cylinder:
         if bore is not None and not rod < bore:
             raise ValueError(f"rod {rod:g} m is not thinner than the bore {bore:g} m")
         return rod
+
+    @field_validator("cushions")
+    @classmethod
+    def _cushions_fit(cls, cushions: Cushions | None, info: ValidationInfo) -> Cushions | None:
+        stroke = info.data.get("stroke")
+        if cushions is not None and stroke is not None and not 2.0 * cushions.length <= stroke:
+            raise ValueError(f"cushions.length {cushions.length:g} m: a cushion at each end "
+                             f"does not fit in the stroke {stroke:g} m (at most half of it)")
+        return cushions
 
     @property
     def cap_area(self) -> float:

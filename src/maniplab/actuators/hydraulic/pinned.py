@@ -274,6 +274,16 @@ class PinnedCylinder(ActuatorPlugin):
                 f"{p.bulk_modulus / 1e9:.3g} GPa): dead volumes {va * 1e3:.4g}, {vb * 1e3:.4g} L")
         return [line]
 
+    def _cushion_lines(self) -> list[str]:
+        """The end cushions (none without), for :meth:`details`."""
+        cushions = self.params.cylinder.cushions
+        if cushions is None:
+            return []
+        line = (f"{' ' * len(self.joint.name)}  end cushions {cushions.length * 1e3:.4g} mm at "
+                f"both ends, the throttle {cushions.nominal_flow * 6e4:.4g} L/min at "
+                f"{cushions.nominal_pressure_drop / 1e5:.4g} bar at the very end")
+        return [line]
+
     def rates(self, native: bool = False) -> dict[str, float]:
         """The spool's lag 1/τ and the pressure decay of the leakage across the piston,
         Le E (1/V_A0 + 1/V_B0), 1/s; none in the engine plugin, whose exponential step takes
@@ -370,7 +380,8 @@ class PinnedCylinder(ActuatorPlugin):
                       f"{law.gain_b * math.sqrt(margin) * 6e4:.4g} L/min into B")
         if v.flow_sharing:
             sizes += "; flow sharing (post-compensated): its edges see the pump less the highest load"
-        return [where, sizes, *self._hose_lines(), *self._rod_friction_lines(np.abs(r))]
+        return [where, sizes, *self._hose_lines(), *self._cushion_lines(),
+                *self._rod_friction_lines(np.abs(r))]
 
     def _rod_friction_lines(self, arms: np.ndarray) -> list[str]:
         """The rod friction in newtons and on the joint over the limits (|r| ``arms``), for
