@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -333,3 +335,19 @@ def test_fuzz_overrides(planar2, overrides):
         assert "\n" not in str(error)
         return
     assert ml.ManipulatorSpec.from_dict(spec.to_dict()) == spec
+
+
+def test_the_pump_pressure_is_swept_with_its_cylinders() -> None:
+    """``supply.pressure`` alone moves every pinned cylinder's supply pressure with it (they must
+    equal it); a cylinder's own supply pressure given too must still match it."""
+    spec = ml.resolve_spec(str(Path(__file__).parent / "arms" / "mixed" / "forestry_pump.yaml"))
+    swept = spec.with_overrides({"supply.pressure": 9.0e6})
+    pinned = [j for j in swept.joints if getattr(j.actuator, "cylinder", None)]
+    assert swept.supply.pressure == 9.0e6 and len(pinned) == 2
+    assert all(j.actuator.supply_pressure == 9.0e6 for j in pinned)
+    lumped = [j for j in swept.joints if not getattr(j.actuator, "cylinder", None)
+              and getattr(j.actuator, "supply_pressure", None) is not None]
+    assert all(j.actuator.supply_pressure == spec.joint(j.name).actuator.supply_pressure
+               for j in lumped)
+    with pytest.raises(ml.SpecError, match="differs from the shared supply"):
+        spec.with_overrides({"supply.pressure": 9.0e6, "joints.lift.actuator.supply_pressure": 8e6})

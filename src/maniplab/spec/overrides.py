@@ -41,6 +41,7 @@ def apply(spec: ManipulatorSpec, overrides: Mapping[str, Any]) -> ManipulatorSpe
     _forget_derived_defaults(data, spec)
     for path, value in overrides.items():
         _set(data, spec, path, value)
+    _follow_the_pump(data, spec, overrides)
     try:
         return type(spec).from_dict(data, source=spec.source)
     except SpecError as exc:
@@ -48,6 +49,23 @@ def apply(spec: ManipulatorSpec, overrides: Mapping[str, Any]) -> ManipulatorSpe
             f"{exc.problem} (after override {_render(overrides)})",
             file=spec.source, joint=exc.joint, field=exc.field,
         ) from None
+
+
+def _follow_the_pump(data: dict[str, Any], spec: ManipulatorSpec,
+                     overrides: Mapping[str, Any]) -> None:
+    """A new shared pump's pressure (``supply.pressure``) is every pinned cylinder's supply
+    pressure too (they must equal it), unless an override sets a cylinder's own."""
+    supply = data.get("supply")
+    if "supply.pressure" not in overrides or spec.supply is None or not isinstance(supply, dict):
+        return
+    own = {f"joints.{key}.actuator.supply_pressure" for j, joint in enumerate(spec.joints)
+           for key in (joint.name, str(j))}
+    if own & set(map(str, overrides)):
+        return
+    for joint, section in zip(spec.joints, data["joints"]):
+        actuator = section.get("actuator")
+        if getattr(joint.actuator, "cylinder", None) is not None and isinstance(actuator, dict):
+            actuator["supply_pressure"] = supply["pressure"]
 
 
 def _render(overrides: Mapping[str, Any]) -> str:
