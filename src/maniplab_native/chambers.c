@@ -73,29 +73,34 @@ static int one_step(const ml_chambers* c, const double* y0, double u, double s0,
   return status;
 }
 
-/* Adds to energy the powers at (y, length, its rate, supply) times `weight` (s). */
-static void add_powers(const ml_chambers* c, const double* y, double s, double sdot,
-                       double supply, double weight, double* energy) {
+/* The powers at (y, length, its rate, supply) into powers[ML_ACCUMULATED]. */
+static void powers_at(const ml_chambers* c, const double* y, double s, double sdot,
+                      double supply, double* powers) {
   ml_chambers law = *c;
-  double powers[ML_ACCUMULATED];
   law.supply = supply;
   ml_chambers_powers(&law, y[0], y[1], y[2], s, sdot, powers);
-  for (int k = 0; k < ML_ACCUMULATED; k++) energy[k] += weight * powers[k];
 }
 
 int ml_chambers_step_energy(const ml_chambers* c, const double* y0, double u, double s0,
                             double sdot0, double s1, double sdot1, double supply1, double h,
                             int substeps, double* y1, double* energy) {
   double y[3] = {y0[0], y0[1], y0[2]}, ps0 = c->supply, half = 0.5 * h / substeps;
+  double before[ML_ACCUMULATED], after[ML_ACCUMULATED];
   int status = 0;
+  if (energy) powers_at(c, y, s0, sdot0, ps0, before);
   for (int k = 0; k < substeps; k++) { /* the length, its rate and the supply linear */
     double a = (double)k / substeps, b = (double)(k + 1) / substeps;
     double ra = sdot0 + a * (sdot1 - sdot0), rb = sdot0 + b * (sdot1 - sdot0);
     double pa = ps0 + a * (supply1 - ps0), pb = ps0 + b * (supply1 - ps0);
     double sa = s0 + a * (s1 - s0), sb = s0 + b * (s1 - s0);
-    if (energy) add_powers(c, y, sa, ra, pa, half, energy);
     status |= one_step(c, y, u, sa, ra, pa, sb, rb, pb, h / substeps, y1);
-    if (energy) add_powers(c, y1, sb, rb, pb, half, energy);
+    if (energy) { /* the trapezoidal rule; a sub-step's end is the next one's start */
+      powers_at(c, y1, sb, rb, pb, after);
+      for (int i = 0; i < ML_ACCUMULATED; i++) {
+        energy[i] += half * (before[i] + after[i]);
+        before[i] = after[i];
+      }
+    }
     for (int i = 0; i < 3; i++) y[i] = y1[i];
   }
   return status;

@@ -233,24 +233,26 @@ static inline void ml_chamber_volumes(const ml_chambers* c, double s, double* va
   *vb = c->dead_b + c->area_b * (c->stroke - y);
 }
 
+/* 1/K of an end cushion's throttle at `distance` (m) from the end the piston moves towards,
+   (1 - d/l) / K_c: 0 outside the cushion (or without one), 1/K_c at the very end. */
+static inline double ml_cushion_throttle(const ml_chambers* c, double distance) {
+  double l = c->cushion_length;
+  if (!(l > 0.0) || distance >= l) return 0.0;
+  return (1.0 - (distance > 0.0 ? distance : 0.0) / l) / c->cushion_gain;
+}
+
 /* The gain of a draining chamber's way out at `distance` (m) from the end the piston moves
    towards: the meter-out edge's `edge` alone, or within an end cushion in series with the
    cushion's throttle, whose gain K_c / (1 - d/l) falls from wide open as the spear enters to K_c
    at the very end (1/K^2 = 1/edge^2 + (1 - d/l)^2 / K_c^2: continuous with its slope there). */
 static inline double ml_cushioned(const ml_chambers* c, double edge, double distance) {
-  double l = c->cushion_length;
-  if (!(l > 0.0) || distance >= l || edge <= 0.0) return edge;
-  double share = 1.0 - (distance > 0.0 ? distance : 0.0) / l;
-  double throttle = share / c->cushion_gain;
-  return edge / sqrt(1.0 + edge * edge * throttle * throttle);
+  double t = ml_cushion_throttle(c, distance);
+  return t > 0.0 && edge > 0.0 ? edge / sqrt(1.0 + edge * edge * t * t) : edge;
 }
 
-/* d(ml_cushioned)/d(edge): 1 / (1 + edge^2 t^2)^(3/2), t the throttle's 1/K (1 outside). */
+/* d(ml_cushioned)/d(edge): 1 / (1 + edge^2 t^2)^(3/2) (1 outside the cushion). */
 static inline double ml_cushioned_slope(const ml_chambers* c, double edge, double distance) {
-  double l = c->cushion_length;
-  if (!(l > 0.0) || distance >= l) return 1.0;
-  double share = 1.0 - (distance > 0.0 ? distance : 0.0) / l;
-  double t = share / c->cushion_gain, r = 1.0 + edge * edge * t * t;
+  double t = ml_cushion_throttle(c, distance), r = 1.0 + edge * edge * t * t;
   return 1.0 / (r * sqrt(r));
 }
 
@@ -268,16 +270,11 @@ static inline void ml_valve_edges_at(const ml_chambers* c, double x, double pa, 
         ml_cushioned(c, c->out_b * open, c->stroke - y) * ml_orifice_root(pb - c->tank, l);
 }
 
-/* The valve's flows into the chambers (Q_A, Q_B) at opening x, m^3/s (away from the cushions). */
+/* The valve's flows into the chambers (Q_A, Q_B) at opening x, m^3/s, away from the cushions
+   (mid-stroke: a cushion is at most half the stroke long). */
 static inline void ml_valve_edges(const ml_chambers* c, double x, double pa, double pb,
                                   double* qa, double* qb) {
-  double open = x > 0.0 ? x : 0.0, reverse = x < 0.0 ? -x : 0.0;
-  double l = c->laminar;
-  double ps = ml_supply_seen(c, pa, pb, x);
-  *qa = c->gain_a * open * ml_meter_in_root(c, ml_metering_drop(c, ps, pa)) -
-        c->out_a * reverse * ml_orifice_root(pa - c->tank, l);
-  *qb = c->gain_b * reverse * ml_meter_in_root(c, ml_metering_drop(c, ps, pb)) -
-        c->out_b * open * ml_orifice_root(pb - c->tank, l);
+  ml_valve_edges_at(c, x, pa, pb, 0.5 * c->stroke, qa, qb);
 }
 
 /* The flow the valve draws from the supply line at pressure ps: through P->A (x > 0) or P->B
@@ -320,13 +317,13 @@ static inline void ml_chambers_jacobian_law(const ml_chambers* c, double pa, dou
     double gain = ml_cushioned(c, edge, y);
     dqa_dpa = c->gain_a * x * ml_meter_in_slope(c, up) * ml_metering_slope(c, pa) * follows;
     dqa_dx = c->gain_a * ml_meter_in_root(c, up);
-    dqb_dpb = x > 0.0 ? -gain * ml_orifice_slope(down, l) : -c->out_b * x * ml_orifice_slope(down, l);
+    dqb_dpb = -gain * ml_orifice_slope(down, l);  /* forward: x >= 0 */
     dqb_dx = -c->out_b * ml_cushioned_slope(c, edge, y) * ml_orifice_root(down, l);
   } else {       /* P -> B, A -> T */
     double up = ml_metering_drop(c, ps, pb), down = pa - c->tank;
     double y = ml_travel(c, s), edge = c->out_a * (x < 0.0 ? -x : 0.0);
     double gain = ml_cushioned(c, edge, y);
-    dqa_dpa = x < 0.0 ? -gain * ml_orifice_slope(down, l) : c->out_a * x * ml_orifice_slope(down, l);
+    dqa_dpa = -gain * ml_orifice_slope(down, l);  /* reverse: x <= 0 */
     dqa_dx = c->out_a * ml_cushioned_slope(c, edge, y) * ml_orifice_root(down, l);
     dqb_dpb = -c->gain_b * x * ml_meter_in_slope(c, up) * ml_metering_slope(c, pb) * follows;
     dqb_dx = -c->gain_b * ml_meter_in_root(c, up);
@@ -384,13 +381,10 @@ static inline void ml_chambers_powers(const ml_chambers* c, double pa, double pb
   /* within an end cushion the drained chamber's drop splits between the cushion's throttle and
      the meter-out edge in series: the throttle's share is e^2 t^2 / (1 + e^2 t^2) (each
      orifice's drop is Q^2 over its gain squared; e the edge's gain, 1/t the throttle's) */
-  double outflow = (drained - c->tank) * out, cushioned = 0.0;
-  double l = c->cushion_length, distance = x > 0.0 ? c->stroke - y : y;
-  if (l > 0.0 && distance < l && out != 0.0) {
-    double e = (x > 0.0 ? c->out_b : c->out_a) * fabs(x);
-    double t = (1.0 - (distance > 0.0 ? distance : 0.0) / l) / c->cushion_gain;
-    cushioned = outflow * e * e * t * t / (1.0 + e * e * t * t);
-  }
+  double outflow = (drained - c->tank) * out;
+  double e = (x > 0.0 ? c->out_b : c->out_a) * fabs(x);
+  double t = ml_cushion_throttle(c, x > 0.0 ? c->stroke - y : y), et2 = e * e * t * t;
+  double cushioned = outflow * et2 / (1.0 + et2);
   powers[ML_E_METER_OUT] = outflow - cushioned;
   powers[ML_E_CUSHION] = cushioned;
   powers[ML_E_LEAKAGE] = (pa - pb) * leak;

@@ -267,6 +267,17 @@ static double pump_draw(const mjModel* m, const mjData* d, double ps, int predic
   return total;
 }
 
+/* The chamber a section's load-sense line reads with its spool's opening on the side `way`:
+   0 (A), 1 (B), or -1 (closed: the tank's). */
+static int sensed_chamber(double way) { return way > 0.0 ? 0 : (way < 0.0 ? 1 : -1); }
+
+/* A load-sensing pump's target at the highest load-sense pressure `highest`: that plus its
+   margin, at most its setting (the cut-off), Pa. */
+static double ls_target(const Cylinder* c, double highest) {
+  double high = highest + c->ls_margin;
+  return high < c->law.supply ? high : c->law.supply;
+}
+
 /* The highest load-sense pressure of the cylinders on the shared pump but `skip` (-1: none): the
    chamber an open (or opening) section's meter-in edge feeds, the tank's for a closed one. */
 static double sensed_max(const mjModel* m, const mjData* d, int skip, double tank, int predicted) {
@@ -278,7 +289,8 @@ static double sensed_max(const mjModel* m, const mjData* d, int skip, double tan
     /* a spool at 0 that its command opens senses the side it opens to at once (it is open an
        instant later: the load-sense pressure jumps there, not a step later) */
     double way = x[2] != 0.0 ? x[2] : ml_spool_target(&c->law, ml_control(m, d, c->actuator));
-    double sensed = way > 0.0 ? x[0] : (way < 0.0 ? x[1] : tank);
+    int k = sensed_chamber(way);
+    double sensed = k < 0 ? tank : x[k];
     highest = sensed > highest ? sensed : highest;
   }
   return highest;
@@ -287,12 +299,8 @@ static double sensed_max(const mjModel* m, const mjData* d, int skip, double tan
 /* What the pump offers at these states: its setting, or a load-sensing pump's highest
    load-sense pressure plus its margin, at most its setting (the cut-off). */
 static double pump_target(const mjModel* m, const mjData* d, const Cylinder* c, int predicted) {
-  double high = c->law.supply;
-  if (c->ls_margin > 0.0) {
-    double sensed = sensed_max(m, d, -1, c->law.tank, predicted) + c->ls_margin;
-    high = sensed < high ? sensed : high;
-  }
-  return high;
+  if (c->ls_margin <= 0.0) return c->law.supply;
+  return ls_target(c, sensed_max(m, d, -1, c->law.tank, predicted));
 }
 
 /* The time within a step of h (s) at which a section's spool, lagging from x0 towards its
@@ -319,12 +327,11 @@ static double target_within(const mjModel* m, const mjData* d, const Cylinder* a
     double goal = ml_spool_target(&c->law, ml_control(m, d, c->actuator));
     double way = goal + (y0[2] - goal) * exp(-side * c->law.inv_tau);
     if (y0[2] == 0.0) way = goal;  /* opening from 0: the side it opens to at once */
-    int k = way > 0.0 ? 0 : (way < 0.0 ? 1 : -1);
+    int k = sensed_chamber(way);
     double sensed = k < 0 ? any->law.tank : y0[k] + w * (y1[k] - y0[k]);
     highest = sensed > highest ? sensed : highest;
   }
-  double high = highest + any->ls_margin;
-  return high < any->law.supply ? high : any->law.supply;
+  return ls_target(any, highest);
 }
 
 /* A pump with a response time relaxed over the step from `pump` (Pa) exactly towards its target,
