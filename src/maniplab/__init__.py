@@ -12,6 +12,7 @@ Public API::
     run = ml.simulate(spec, inputs={"q1": ml.signals.step(0.5, t0=0.1)}, duration=2.0)
     runs = ml.sweep(spec, {"end_effector.mass": [3000, 5000]}, out="runs/", duration=2.0)
     chart = ml.load_chart(spec)              # the largest payload held at each pose
+    result = ml.optimize("study.yaml", out="opt/")  # co-design: the best spec by a study file
 """
 
 
@@ -57,6 +58,7 @@ _HOMES: dict[str, str] = {
     "identify": "maniplab.identification",
     "LoadChart": "maniplab.loadchart", "load_chart": "maniplab.loadchart",
     "build_model": "maniplab.mjcf_gen", "to_mjcf": "maniplab.mjcf_gen",
+    "optimize": "maniplab.optimize",
     "AnalyticModel": "maniplab.model",
     "InputError": "maniplab.sim", "InstabilityError": "maniplab.sim", "Plant": "maniplab.sim",
     "PlantState": "maniplab.sim", "PluginError": "maniplab.sim", "Run": "maniplab.sim",
@@ -94,6 +96,7 @@ if TYPE_CHECKING:
     from maniplab.loadchart import LoadChart, load_chart
     from maniplab.mjcf_gen import build_model, to_mjcf
     from maniplab.model import AnalyticModel
+    from maniplab.optimize import optimize
     from maniplab.sim import (
         InputError,
         InstabilityError,
@@ -205,6 +208,7 @@ __all__ = [
     "load_chart",
     "load_plugins",
     "load_spec",
+    "optimize",
     "render",
     "resolve_spec",
     "segment_placement",

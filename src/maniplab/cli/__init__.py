@@ -18,6 +18,7 @@ from maniplab.cli import (
     gui_command,
     identify_command,
     loadchart_command,
+    optimize_command,
     render_command,
     sim_commands,
     spec_commands,
@@ -40,7 +41,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
     for module in (spec_commands, sim_commands, control_command, tune_command,
                    loadchart_command, identify_command, render_command, demo_command,
-                   gui_command, fmu_command):
+                   gui_command, fmu_command, optimize_command):
         module.add(sub)
     return parser
 

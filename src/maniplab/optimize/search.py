@@ -1,0 +1,173 @@
+"""The optimisers, each from a well-kept library, each seeded (same seed, same candidates):
+
+- ``differential_evolution`` (scipy): continuous (and integer) variables, one objective. A
+  derivative-free global search that needs no gradient of a simulation, whose population of a
+  generation is evaluated as one batch (``updating="deferred"``), in parallel, in a fixed order.
+  Infeasible candidates score worse than every feasible one (by their violation).
+- ``nsga2`` (optuna's ``NSGAIISampler``): catalogue (categorical), integer and continuous
+  variables together, one or several objectives (the Pareto front), constraints by optuna's
+  constrained domination. Each generation is asked as one batch and told in order.
+- ``grid``: every combination, when all variables are discrete and the combinations fit the
+  budget (a catalogue of sizes searched exhaustively: nothing to gain from a heuristic).
+
+``auto`` picks grid when it fits, else differential evolution for one objective without
+catalogue variables, else NSGA-II.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+
+from maniplab.optimize.study import Study, Variable
+
+Batch = Callable[[Sequence[Sequence[Any]]], list[dict[str, Any]]]
+"""Evaluates candidates (a value per variable each), returning their records in order."""
+
+PENALTY = 1e12
+"""A single-objective score of an infeasible candidate: PENALTY (1 + violation), and 1000
+PENALTY for one the spec or its evaluation refused."""
+
+
+def choose(study: Study) -> str:
+    """The optimiser ``auto`` stands for (see the module's docstring)."""
+    if study.optimizer != "auto":
+        return study.optimizer
+    size = grid_size(study.variables)
+    if size is not None and size <= study.budget:
+        return "grid"
+    if len(study.objectives) == 1 and all(v.kind != "categorical" for v in study.variables):
+        return "differential_evolution"
+    return "nsga2"
+
+
+def grid_size(variables: Sequence[Variable]) -> int | None:
+    """The number of combinations of discrete variables (None: some variable is continuous)."""
+    size = 1
+    for v in variables:
+        if v.kind == "continuous":
+            return None
+        size *= len(_levels(v))
+    return size
+
+
+def _levels(v: Variable) -> list[Any]:
+    if v.choices:
+        return list(v.choices)
+    assert v.low is not None and v.high is not None
+    return list(range(math.ceil(v.low), math.floor(v.high) + 1))
+
+
+def score(record: dict[str, Any], study: Study) -> float:
+    """A record's single-objective score, lower is better (see :data:`PENALTY`)."""
+    if record["reason"] is not None:
+        return 1000.0 * PENALTY
+    if not record["feasible"]:
+        return PENALTY * (1.0 + min(record["violation"], 1e6))
+    objective = study.objectives[0]
+    value = record["metrics"][objective.metric]
+    value = -value if objective.sense == "max" else value
+    return float(value) if math.isfinite(value) else 1000.0 * PENALTY
+
+
+def run_search(study: Study, batch: Batch) -> str:
+    """Search within ``study.budget`` evaluations; returns the optimiser used."""
+    method = choose(study)
+    if method == "grid":
+        _grid(study, batch)
+    elif method == "differential_evolution":
+        _differential_evolution(study, batch)
+    else:
+        _nsga2(study, batch)
+    return method
+
+
+def _grid(study: Study, batch: Batch) -> None:
+    combos = list(itertools.product(*(_levels(v) for v in study.variables)))[: study.budget]
+    batch(combos)
+
+
+def population(study: Study) -> int:
+    """Candidates per generation: the study's, else 15 per variable (scipy's default), within
+    the budget."""
+    n = len(study.variables)
+    size = study.population or (15 * n if choose(study) == "differential_evolution" else 24)
+    return max(4 if choose(study) == "differential_evolution" else 2, min(size, study.budget))
+
+
+def _differential_evolution(study: Study, batch: Batch) -> None:
+    from scipy.optimize import Bounds, differential_evolution
+
+    variables = study.variables
+    if any(v.kind == "categorical" for v in variables):
+        from maniplab.optimize.errors import StudyError
+
+        raise StudyError("differential_evolution takes continuous and integer variables only; "
+                         "use nsga2 for catalogue variables", file=study.source,
+                         field="optimizer")
+    n = len(variables)
+    size = population(study)
+    generations = max(0, study.budget // size - 1)
+    low = np.array([v.low for v in variables], dtype=float)
+    high = np.array([v.high for v in variables], dtype=float)
+    integrality = np.array([v.integer for v in variables])
+
+    def mapper(_: Any, population: Any) -> list[float]:
+        candidates = [[round(float(x)) if v.integer else float(x) for v, x in zip(variables, row)]
+                      for row in np.atleast_2d(np.asarray(list(population)))]
+        return [score(r, study) for r in batch(candidates)]
+
+    differential_evolution(_unused, Bounds(low, high), seed=study.seed, popsize=max(1, math.ceil(size / n)),
+                           maxiter=generations, tol=0.0, atol=0.0, polish=False,
+                           updating="deferred", workers=mapper, init="latinhypercube",
+                           integrality=integrality if integrality.any() else None)
+
+
+def _unused(x: Any) -> float:  # pragma: no cover - the mapper evaluates, through the cache
+    raise AssertionError("differential evolution's function is evaluated by the mapper")
+
+
+def _nsga2(study: Study, batch: Batch) -> None:
+    import optuna
+
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    size = population(study)
+    sampler = optuna.samplers.NSGAIISampler(population_size=size, seed=study.seed,
+                                            constraints_func=_constraints)
+    directions = [optuna.study.StudyDirection.MAXIMIZE if o.sense == "max" else
+                  optuna.study.StudyDirection.MINIMIZE for o in study.objectives]
+    search = optuna.create_study(directions=directions, sampler=sampler)
+    done = 0
+    while done < study.budget:
+        count = min(size, study.budget - done)
+        trials = [search.ask() for _ in range(count)]
+        candidates = [[_suggest(t, i, v) for i, v in enumerate(study.variables)] for t in trials]
+        for trial, record in zip(trials, batch(candidates)):
+            violation = record["violation"]
+            trial.set_user_attr("violation", float(min(violation, PENALTY)))
+            values = []
+            for o in study.objectives:
+                value = record["metrics"].get(o.metric, math.nan)
+                if record["reason"] is not None or not math.isfinite(value):
+                    value = -PENALTY if o.sense == "max" else PENALTY
+                values.append(float(value))
+            search.tell(trial, values)
+        done += count
+
+
+def _constraints(trial: Any) -> list[float]:
+    return [float(trial.user_attrs.get("violation", 0.0))]
+
+
+def _suggest(trial: Any, i: int, v: Variable) -> Any:
+    name = f"x{i}"
+    if v.choices:
+        return v.choices[trial.suggest_categorical(name, list(range(len(v.choices))))]
+    assert v.low is not None and v.high is not None
+    if v.integer:
+        return trial.suggest_int(name, math.ceil(v.low), math.floor(v.high))
+    return trial.suggest_float(name, v.low, v.high)
