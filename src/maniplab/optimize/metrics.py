@@ -28,6 +28,7 @@ without one), named in the study's ``plugins``.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
@@ -152,6 +153,7 @@ def _number(value: float) -> float:
     return 0.0 if math.isnan(value) else float(value)
 
 
+@functools.cache
 def load_function(target: str) -> Callable[..., Any]:
     """The function a plugin names, ``module:function`` (a module on the path, or a file
     ``path/to/file.py:function``)."""

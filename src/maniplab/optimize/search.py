@@ -136,8 +136,11 @@ def _nsga2(study: Study, batch: Batch) -> None:
 
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     size = population(study)
-    sampler = optuna.samplers.NSGAIISampler(population_size=size, seed=study.seed,
-                                            constraints_func=_constraints)
+    # optuna >= 5 takes each trial's constraints from the trial (set_constraint); before, from
+    # a function of the trial
+    modern = hasattr(optuna.trial.Trial, "set_constraint")
+    options: dict[str, Any] = {} if modern else {"constraints_func": _constraints}
+    sampler = optuna.samplers.NSGAIISampler(population_size=size, seed=study.seed, **options)
     directions = [optuna.study.StudyDirection.MAXIMIZE if o.sense == "max" else
                   optuna.study.StudyDirection.MINIMIZE for o in study.objectives]
     search = optuna.create_study(directions=directions, sampler=sampler)
@@ -148,7 +151,11 @@ def _nsga2(study: Study, batch: Batch) -> None:
         candidates = [[_suggest(t, i, v) for i, v in enumerate(study.variables)] for t in trials]
         for trial, record in zip(trials, batch(candidates)):
             violation = record["violation"]
-            trial.set_user_attr("violation", float(min(violation, PENALTY)))
+            violation = float(min(violation, PENALTY))
+            if modern:
+                trial.set_constraint("violation", violation)
+            else:
+                trial.set_user_attr("violation", violation)
             values = []
             for o in study.objectives:
                 value = record["metrics"].get(o.metric, math.nan)
