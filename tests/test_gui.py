@@ -8,6 +8,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import browser as web
 import mujoco
@@ -17,7 +18,7 @@ from PIL import Image
 from selenium.webdriver.common.keys import Keys
 
 import maniplab as ml
-from maniplab.gui.app import Gui
+from maniplab.gui.app import IDLE_STOP, Gui
 from maniplab.gui.arm3d import Arm3D
 from maniplab.gui.replay import recording_server, replay_html
 from maniplab.gui.simulate import headline_overrides, inputs_of, term
@@ -147,7 +148,11 @@ def test_the_closed_loop_move_reports_its_verdict(tmp_path: Path) -> None:
         app.simulate.move_duration.value = 2.0
         app.simulate.run_move()
         assert "stored run 'run-cascade'" in _wait_idle(app)
-        assert "health ok; tolerances met" in str(app.simulate.verdict.content)
+        verdict = str(app.simulate.verdict.content)
+        assert "health ok  \ntolerances met" in verdict
+        # the planner stretched this move, and the verdict says so: asked and actual duration
+        move = app.workspace.load_run("run-cascade").meta["move"]
+        assert f"asked 2 s, ran {move['duration']:.3g} s" in verdict and move["duration"] > 2.0
         run = app.workspace.load_run("run-cascade")
         # the run ends at the target: the arm's own forward kinematics at its last q
         view.view.pose(run.q[-1])
@@ -279,7 +284,7 @@ def test_the_page_configures_simulates_compares_and_replays(tmp_path: Path) -> N
 
             # both in the list, overlaid
             web.tab(driver, "Runs")
-            web.wait(lambda: web.visible(driver, "//table[@id='ml-runs']//td[.='run-2']"),
+            web.wait(lambda: web.visible(driver, "//label[normalize-space()='run-2']"),
                      "run-2 in the list")
             web.tick(driver, "run")
             web.tick(driver, "run-2")
@@ -296,7 +301,7 @@ def test_the_page_configures_simulates_compares_and_replays(tmp_path: Path) -> N
             driver.switch_to.new_window("tab")
             driver.get(app.url)
             web.tab(driver, "Runs")
-            web.wait(lambda: web.visible(driver, "//table[@id='ml-runs']//td[.='run-2']"),
+            web.wait(lambda: web.visible(driver, "//label[normalize-space()='run-2']"),
                      "run-2 in the second tab")
             driver.close()
             driver.switch_to.window(driver.window_handles[0])
@@ -356,7 +361,111 @@ def test_joints_added_moved_removed_saved_and_exported(tmp_path: Path) -> None:
         assert model.njnt == app.spec.n
         tab.file_name.value = "../outside"
         tab.save()
-        assert "not a valid name" in str(app.status.content)
+        assert "not a valid name" in tab.save_note.text
         assert not (tmp_path / "outside.yaml").exists()
     finally:
         app.close()
+
+
+def _button(driver: Any, text: str) -> Any:
+    return web.wait(lambda: web.visible(driver, f"//button[normalize-space()='{text}']"),
+                    f"the button '{text}'")
+
+
+def _red(element: Any) -> bool:
+    """Whether ``element``'s background is strongly red."""
+    colour = element.value_of_css_property("background-color")
+    r, g, b = (int(float(x)) for x in colour[colour.index("(") + 1:].split(",")[:3])
+    return r > 150 and r > g + 60 and r > b + 60
+
+
+def test_the_page_says_its_state_next_to_the_control(tmp_path: Path) -> None:
+    """Issue 37, clear state: Stop disabled (not red) while idle and Run disabled during a job; a
+    job's outcome (and a refusal) said next to its control; a move the planner stretched said
+    (asked and actual duration, each sentence once) and stored in the run's metadata, expandable
+    in the Runs tab, which lists each run once; switching tabs clears the messages, and leaving
+    Watch takes the replay away and shows the configured arm again."""
+    spec = ml.builtin_spec("erector")
+    app = Gui(spec, tmp_path / "ws", port=_port())
+    try:
+        with web.chromium() as driver:
+            driver.get(app.url)
+            web.text_shown(driver, "hydraulic")
+            idle = _button(driver, IDLE_STOP)  # in the place of Stop, disabled and grey
+            assert not idle.is_enabled() and not _red(idle)
+            assert not web.visible(driver, "//button[normalize-space()='Stop']")
+
+            # a long run: Stop enabled and red, Run disabled, another job refused next to it
+            web.tab(driver, "Simulate")
+            app.simulate.duration.value = 600.0
+            web.click(driver, "Run")
+            web.wait(lambda: app.jobs.busy, "the run started")
+            assert _button(driver, "Stop").is_enabled() and _red(_button(driver, "Stop"))
+            assert not web.visible(driver, f"//button[normalize-space()='{IDLE_STOP}']")
+            web.wait(lambda: not _button(driver, "Run").is_enabled(), "Run disabled")
+            app.simulate.run_move()  # as a second page would ask
+            web.text_shown(driver, "busy: another job runs")
+            web.click(driver, "Stop")
+            web.text_shown(driver, "stopped, nothing stored")  # next to Run
+            _button(driver, IDLE_STOP)  # idle again: Stop disabled and grey
+            assert not web.visible(driver, "//button[normalize-space()='Stop']")
+            assert _button(driver, "Run").is_enabled() and app.workspace.runs() == []
+
+            # a move asked faster than the valves allow: stretched, said, stored
+            from maniplab.gui.configure import home
+            from maniplab.viz.arm import ArmView
+
+            view = ArmView(spec)
+            lo, hi = (np.array([j.limits[k] for j in spec.joints]) for k in (0, 1))
+            view.pose(home(spec) + 0.01 * (hi - lo))
+            target = tuple(round(float(x), 3) for x in view.end_effector_position)
+            app.simulate.target.value = target
+            app.simulate.move_duration.value = 0.2
+            web.click(driver, "Run move")
+            web.text_shown(driver, "move stretched: asked 0.2 s, ran")
+            _wait_idle(app)
+            web.shot(driver, "state-1-stretched")
+            verdict = str(app.simulate.verdict.content)
+            sentences = [x.strip() for x in verdict.replace("  \n", ";").split(";") if x.strip()]
+            assert len(sentences) == len(set(sentences)), verdict
+            assert "--fit" not in verdict and "--" not in verdict.replace("\\-", "")
+            run = app.workspace.load_run("run-cascade")
+            move = run.meta["move"]
+            assert move["asked_duration"] == 0.2 and move["stretched"]
+            assert move["target"] == list(target) and move["controller"] == "cascade"
+            # the stretch is real: the stored run lasts the move it reports, not the 0.2 s asked
+            assert float(run.t[-1]) >= 0.5 + move["duration"] > 0.5 + 0.2 + 0.5
+            assert f"{move['duration']:.3g} s" in verdict
+
+            # Runs: each run once, its move expandable; the Simulate messages gone
+            web.tab(driver, "Runs")
+            web.wait(lambda: app.simulate.verdict.content == "", "Simulate's messages cleared")
+            web.wait(lambda: web.visible(driver, "//label[normalize-space()='run-cascade']"),
+                     "the run listed")
+            named = [e for e in driver.find_elements(
+                "xpath", "//*[normalize-space(.)='run-cascade' and "
+                "not(*[normalize-space(.)='run-cascade'])]") if e.is_displayed()]
+            assert len(named) == 1, [e.tag_name for e in named]
+            summary = _wait_shown(driver, "//details[@class='ml-move']/summary")
+            summary.click()
+            web.text_shown(driver, "duration asked [s]")
+            web.shot(driver, "state-2-runs")
+
+            # Watch, then back to Configure: the replay gone, the configured arm shown
+            web.tick(driver, "run-cascade")
+            web.tab(driver, "Watch")
+            web.click(driver, "Show the ticked runs")
+            web.wait(lambda: app.watch.replay is not None, "the replay")
+            arm = app.configure.arm3d
+            assert arm is not None and not any(h.visible for _, h in arm._meshes)
+            web.tab(driver, "Configure")
+            web.wait(lambda: app.watch.replay is None, "the replay taken away")
+            assert all(h.visible for _, h in arm._meshes)
+            assert app.simulate.gizmo is not None and not app.simulate.gizmo.visible
+            web.wait(lambda: _saturated(web.shot(driver, "state-3-back")) > 600, "the arm")
+    finally:
+        app.close()
+
+
+def _wait_shown(driver: Any, xpath: str) -> Any:
+    return web.wait(lambda: web.visible(driver, xpath), xpath)

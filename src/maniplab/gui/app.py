@@ -25,11 +25,14 @@ from pathlib import Path
 from typing import Any
 
 from maniplab.gui.guard import guard
+from maniplab.gui.tabs import tab_watcher
 from maniplab.gui.text import plain
 from maniplab.gui.workspace import Workspace
 from maniplab.spec import ManipulatorSpec
 
 LOCALHOST = ("127.0.0.1", "localhost", "::1")
+TABS = ("Configure", "Simulate", "Runs", "Watch")
+IDLE_STOP = "Stop (no job running)"
 
 
 class Gui:
@@ -71,12 +74,19 @@ class Gui:
         self.guard = guard(self.server, self._bug)
         gui = self.server.gui
         gui.configure_theme(control_width="large", show_logo=False, show_share_button=False)
-        self.jobs = Jobs(self._report)
+        self.job_buttons: list[Any] = []  # disabled while a job runs (Run, Run move, exports)
+        self.jobs = Jobs(self._report, self._busy)
         with gui.add_folder("Job", order=0):
             self.status = gui.add_markdown("idle")
             self.progress = gui.add_progress_bar(0.0, visible=False)
-            self.stop_button = gui.add_button("Stop", color="red", hint="stop the running job; "
-                                              "nothing of it is stored")
+            # Stop is shown only while a job runs (red); idle, a disabled grey Stop stands in
+            # its place ("Stop (no job running)"), so the button that stops is never disabled
+            self.stop_button = gui.add_button("Stop", color="red", visible=False,
+                                              hint="stop the running job; nothing of it is "
+                                                   "stored")
+            self.stop_idle = gui.add_button(IDLE_STOP, disabled=True, hint="no job runs")
+            self.tab = TABS[0]
+            tab_watcher(gui, TABS, self._switched)
         self.stop_button.on_click(lambda _: self.jobs.stop())
         tabs = gui.add_tab_group(order=1)
         with tabs.add_tab("Configure"):
@@ -128,6 +138,32 @@ class Gui:
         """Show one status line (as text: escaped, on one line)."""
         self.said = " ".join(text.split())
         self.status.content = plain(text)
+
+    def _busy(self, busy: bool) -> None:
+        """A job started (True) or ended: Stop enabled (red) only while one runs, the buttons that
+        start jobs disabled meanwhile."""
+        self.stop_button.visible = busy
+        self.stop_idle.visible = not busy
+        for button in self.job_buttons:
+            button.disabled = busy
+        if not busy:
+            self.progress.visible = False
+
+    def _switched(self, tab: str) -> None:
+        """The page shows ``tab``: the other tabs' messages cleared, each tab its own scene (the
+        Watch replay only in Watch)."""
+        with self.lock:
+            left, self.tab = self.tab, tab
+            if tab == left:
+                return
+            for part in (self.configure, self.simulate, self.runs, self.watch):
+                part.clear_messages()
+            if left == "Watch":
+                self.watch.hide()
+            if self.simulate.gizmo is not None:  # the move's target: a control of Simulate only
+                self.simulate.gizmo.visible = tab == "Simulate"
+            if not self.jobs.busy:
+                self.say("idle")
 
     def _report(self, text: str, fraction: float | None) -> None:
         self.say(text)

@@ -18,7 +18,7 @@ from maniplab.builtin import builtin_spec, builtin_specs
 from maniplab.errors import ManiplabError, SpecError
 from maniplab.gui.arm3d import Arm3D
 from maniplab.gui.replay import stage
-from maniplab.gui.text import warning
+from maniplab.gui.text import Note, warning
 from maniplab.spec import ManipulatorSpec
 from maniplab.spec.yaml_io import dump_yaml, parse_yaml
 
@@ -105,6 +105,7 @@ class ConfigureTab:
         self.builtin = gui.add_dropdown("Built-in arm", builtin_specs(),
                                         initial_value=_initial(app.spec))
         gui.add_button("Start from this built-in").on_click(lambda _: self.load_builtin())
+        self.builtin_note = Note(gui)
         self.table = gui.add_html("")
         with gui.add_folder("Arm"):
             self.arm_fields = [Field(gui, path, hint, "", self._apply_arm,
@@ -123,6 +124,7 @@ class ConfigureTab:
                                       ("Move up", lambda: self.move_joint(-1)),
                                       ("Move down", lambda: self.move_joint(1))):
                     gui.add_button(label).on_click(_call(action))
+                self.structure_note = Note(gui)
             self.fields_folder = gui.add_folder("Fields")
         self.joint_fields: list[Field] = []
         self._masses: dict[str, float] = {}  # body masses switched off, kg
@@ -137,8 +139,10 @@ class ConfigureTab:
             gui.add_button("Save spec").on_click(lambda _: self.save())
             gui.add_button("Download MJCF").on_click(lambda event: self.download_mjcf(event.client))
             self.model_format = gui.add_dropdown("Analytic model", _MODELS)
-            gui.add_button("Download analytic model").on_click(
-                lambda event: self.download_model(event.client))
+            model_button = gui.add_button("Download analytic model")
+            model_button.on_click(lambda event: self.download_model(event.client))
+            app.job_buttons.append(model_button)
+            self.save_note = Note(gui)
         self.arm3d: Arm3D | None = None
         app.on_spec(self.refresh)
         self.refresh()
@@ -247,8 +251,9 @@ class ConfigureTab:
             selected = edit(data["joints"], index)
             spec = ManipulatorSpec.from_dict(data, source=self.app.spec.source)
         except ManiplabError as exc:
-            self.app.say(f"⚠ {exc}")
+            self.structure_note(f"⚠ {exc}")
             return
+        self.structure_note.clear()
         self._select = spec.joints[selected].name
         self.app.set_spec(spec)
 
@@ -284,7 +289,7 @@ class ConfigureTab:
         spec = builtin_spec(self.builtin.value)
         self.file_name.value = _safe(spec.name)
         self.app.set_spec(spec)
-        self.app.say(f"loaded the built-in {spec.name}")
+        self.builtin_note(f"loaded the built-in {spec.name}")
 
     # --- saving ---------------------------------------------------------------------------------
 
@@ -293,9 +298,9 @@ class ConfigureTab:
         try:
             path = self.app.workspace.save_spec(self.app.spec, self.file_name.value)
         except (ManiplabError, OSError) as exc:
-            self.app.say(f"⚠ {exc}")
+            self.save_note(f"⚠ {exc}")
             return
-        self.app.say(f"saved {path}")
+        self.save_note(f"saved {path}")
 
     def download_mjcf(self, client: Any = None) -> None:
         """Send the arm's MJCF to ``client`` (the page that asked)."""
@@ -305,9 +310,9 @@ class ConfigureTab:
             path = self.app.download(_safe(self.app.spec.name), ".xml", to_mjcf(self.app.spec),
                                      client)
         except (ManiplabError, OSError) as exc:
-            self.app.say(f"⚠ {exc}")
+            self.save_note(f"⚠ {exc}")
             return
-        self.app.say(f"MJCF written to {path} and sent to the browser")
+        self.save_note(f"MJCF written to {path} and sent to the browser")
 
     def download_model(self, client: Any = None) -> None:
         """Derive the analytic model in the chosen format (a job: it can take seconds) and send it
@@ -321,7 +326,12 @@ class ConfigureTab:
             return f"analytic model written to {path} and sent to the browser"
 
         self.app.jobs.start(f"deriving the {fmt} model", lambda: export_model(spec, fmt, []),
-                            done)
+                            done, self.save_note)
+
+    def clear_messages(self) -> None:
+        """Hide the tab's messages (the fields' errors stay with their fields)."""
+        for note in (self.builtin_note, self.structure_note, self.save_note):
+            note.clear()
 
 
 def _call(action: Callable[[], None]) -> Callable[[Any], None]:

@@ -21,16 +21,22 @@ from maniplab.workers import Cancel
 Report = Callable[[str, float | None], None]
 """``report(status line, progress 0..1 or None)``: what the page shows of the job."""
 
+Say = Callable[[str], None]
+"""``say(line)``: shows a job's outcome (or its refusal) next to the control that started it."""
+
 
 class Jobs:
     """Runs one job at a time.
 
     Args:
         report: called with a status line and the progress (None: no bar) as the job goes.
+        on_busy: called with True when a job starts and False when it ends (the page's Run
+            buttons disabled and Stop enabled while a job runs).
     """
 
-    def __init__(self, report: Report) -> None:
+    def __init__(self, report: Report, on_busy: Callable[[bool], None] | None = None) -> None:
         self.report = report
+        self.on_busy = on_busy or (lambda busy: None)
         self._cancel: Cancel | None = None
         self._lock = threading.Lock()
 
@@ -39,16 +45,22 @@ class Jobs:
         """Whether a job is running."""
         return self._cancel is not None
 
-    def start(self, what: str, work: Callable[[], Any], done: Callable[[Any], str]) -> bool:
+    def start(self, what: str, work: Callable[[], Any], done: Callable[[Any], str],
+              say: Say | None = None) -> bool:
         """Start ``work()`` in a background thread; ``done(result)`` stores its result and returns
-        the status line to show. Refused (False, and said) while another job runs."""
+        the status line to show (also through ``say``: next to the control that started the
+        job). Refused (False, and said) while another job runs."""
         with self._lock:
             if self._cancel is not None:
-                self.report("busy: stop the running job first", None)
+                (say or (lambda text: self.report(text, None)))(
+                    "busy: another job runs; wait for it or stop it first")
                 return False
             self._cancel = cancel = Cancel()
+        self.on_busy(True)
         self.report(f"{what} ...", 0.0)
-        threading.Thread(target=self._run, args=(cancel, what, work, done), daemon=True,
+        if say is not None:
+            say(f"{what} ...")
+        threading.Thread(target=self._run, args=(cancel, what, work, done, say), daemon=True,
                          name=f"maniplab-gui: {what}").start()
         return True
 
@@ -58,21 +70,26 @@ class Jobs:
             self._cancel.set()
 
     def _run(self, cancel: Cancel, what: str, work: Callable[[], Any],
-             done: Callable[[Any], str]) -> None:
+             done: Callable[[Any], str], say: Say | None) -> None:
         try:
             with listening(lambda label, fraction: self.report(f"{label} ...", fraction)):
                 result = cancel.run(work)
             if cancel.is_set:
                 raise KeyboardInterrupt
-            self.report(done(result), None)
+            outcome = done(result)
         except KeyboardInterrupt:
-            self.report(f"{what}: stopped, nothing stored", None)
+            outcome = f"{what}: stopped, nothing stored"
         except ManiplabError as exc:
-            self.report(f"{what} failed: {exc}", None)
+            outcome = f"{what} failed: {exc}"
         except Exception as exc:  # noqa: BLE001 - a bug: said on the page and logged in full
             traceback.print_exc()
-            self.report(f"{what} failed (a maniplab bug, traceback on the server's stderr): "
-                        f"{type(exc).__name__}: {exc}", None)
+            outcome = (f"{what} failed (a maniplab bug, traceback on the server's stderr): "
+                       f"{type(exc).__name__}: {exc}")
+        try:  # said before the job ends: whoever waits for the end reads it
+            self.report(outcome, None)
+            if say is not None:
+                say(outcome)
         finally:
             with self._lock:
                 self._cancel = None
+            self.on_busy(False)

@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from maniplab.errors import ManiplabError
-from maniplab.gui.text import plain, warning
+from maniplab.gui.text import Note, plain, warning
 from maniplab.sim import params
 from maniplab.sim.run import Run
 from maniplab.viz.compare import parameters
@@ -34,22 +34,40 @@ def legend(runs: list[Run], names: list[str]) -> list[str]:
     return params.labels([parameters(run) for run in runs], names)
 
 
-def runs_table(workspace: Any, names: list[str]) -> str:
-    """The stored runs as an HTML table: name, duration, kind, health verdict."""
-    rows = []
-    for name in names:
+def run_summary(workspace: Any, name: str) -> str:
+    """One stored run as HTML, shown under its tick box: duration, kind, health verdict; a
+    closed-loop move's record (target, asked and actual duration, controller, errors, findings)
+    expandable."""
+    try:
+        run = workspace.load_run(name)
+    except (ManiplabError, OSError) as exc:
+        return f"<div class='ml-run' style='font-size:11px'>unreadable: {html.escape(str(exc))}</div>"
+    kind = "closed loop" if "e_x" in run else "open loop"
+    line = f"{float(run.t[-1]):.3g} s · {kind} · health {run.health.verdict}"
+    move = run.meta.get("move")
+    details = ""
+    if isinstance(move, dict):
+        from maniplab.gui.simulate import move_lines
+
+        target = ", ".join(f"{float(x):.3f}" for x in move.get("target", []))
+        rows = [("target [m]", target), ("controller", str(move.get("controller", "?"))),
+                ("duration asked [s]", f"{float(move.get('asked_duration', 0.0)):g}"),
+                ("duration run [s]", f"{float(move.get('duration', 0.0)):.3g}"),
+                ("stretched", "yes" if move.get("stretched") else "no")]
         try:
-            run = workspace.load_run(name)
-            kind = "closed loop" if "e_x" in run else "open loop"
-            cells = (name, f"{float(run.t[-1]):.3g} s", kind, run.health.verdict)
-        except (ManiplabError, OSError) as exc:
-            cells = (name, "–", "unreadable", str(exc))
-        rows.append("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in cells) + "</tr>")
-    if not rows:
-        return "<p style='font-size:12px'>No runs yet: run one in the Simulate tab.</p>"
-    return ("<table id='ml-runs' style='border-collapse:collapse;font-size:11px'>"
-            "<tr><th>run</th><th>duration</th><th>kind</th><th>health</th></tr>"
-            + "".join(rows) + "</table>")
+            said = move_lines(move)
+        except (KeyError, TypeError, ValueError, IndexError):
+            said = []
+        cells = "".join(f"<tr><td>{html.escape(k)}</td><td>{html.escape(v)}</td></tr>"
+                        for k, v in rows)
+        notes = "".join(f"<li>{html.escape(x)}</li>" for x in said)
+        stretched = " · <b>stretched</b>" if move.get("stretched") else ""
+        details = (f"<details class='ml-move'><summary>move to [{html.escape(target)}] m{stretched}"
+                   f"</summary><table style='font-size:11px'>{cells}</table>"
+                   f"<ul style='margin:0;padding-left:1.2em'>{notes}</ul></details>")
+    return (f"<div class='ml-run' data-run='{html.escape(name, quote=True)}' "
+            f"style='font-size:11px;margin:-6px 0 6px 2.2em;color:#555'>{html.escape(line)}"
+            f"{details}</div>")
 
 
 class RunsTab:
@@ -58,14 +76,17 @@ class RunsTab:
     def __init__(self, app: Gui) -> None:
         self.app = app
         gui = app.server.gui
-        self.table = gui.add_html("")
-        self.pick_folder = gui.add_folder("Runs to compare and watch")
+        self.pick_folder = gui.add_folder("Stored runs: tick to compare and watch")
+        with self.pick_folder:
+            self.empty = gui.add_markdown("No runs yet: run one in the Simulate tab.")
         self.picks: dict[str, Any] = {}
+        self._summaries: dict[str, Any] = {}
         with gui.add_folder("Rename or delete", expand_by_default=False):
             self.chosen = gui.add_dropdown("Run", ["-"])
             self.new_name = gui.add_text("New name", "")
             gui.add_button("Rename").on_click(lambda _: self.rename())
             gui.add_button("Delete", color="red").on_click(lambda _: self.delete())
+            self.change_note = Note(gui)
         with gui.add_folder("Signals"):
             self.signals = {key: gui.add_checkbox(label, key in ("q", "dP"))
                             for key, label in SIGNALS.items()}
@@ -77,15 +98,20 @@ class RunsTab:
         self.refresh()
 
     def refresh(self) -> None:
-        """Show the runs now stored (after a restart too: the workspace is the record)."""
+        """Show the runs now stored, each once: its tick box and, under it, its summary (after a
+        restart too: the workspace is the record)."""
         names = self.app.workspace.runs()
-        self.table.content = runs_table(self.app.workspace, names)
         if list(self.picks) != names:
             chosen = {n for n, box in self.picks.items() if box.value}
-            for box in self.picks.values():
-                box.remove()
+            for handle in (*self.picks.values(), *self._summaries.values()):
+                handle.remove()
+            self.picks, self._summaries = {}, {}
             with self.pick_folder:
-                self.picks = {n: self.app.server.gui.add_checkbox(n, n in chosen) for n in names}
+                for n in names:
+                    self.picks[n] = self.app.server.gui.add_checkbox(n, n in chosen)
+                    self._summaries[n] = self.app.server.gui.add_html(
+                        run_summary(self.app.workspace, n))
+        self.empty.visible = not names
         self.chosen.options = names or ["-"]
 
     def selected(self) -> list[str]:
@@ -108,10 +134,15 @@ class RunsTab:
         try:
             action()
         except (ManiplabError, OSError) as exc:
-            self.message.content = warning(exc)
+            self.change_note(f"⚠ {exc}")
             return
-        self.message.content = plain(done)
+        self.change_note(done)
         self.app.runs_changed()
+
+    def clear_messages(self) -> None:
+        """Hide the tab's messages (the plot stays)."""
+        self.change_note.clear()
+        self.message.content = ""
 
     def plot(self) -> None:
         """Overlay the chosen signals of the runs ticked."""

@@ -8,12 +8,13 @@ workspace with its parameters (the run file holds its spec, inputs and overrides
 
 from __future__ import annotations
 
+import dataclasses
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from maniplab.errors import ManiplabError
-from maniplab.gui.text import plain, warning
+from maniplab.gui.text import Note, plain, warning
 from maniplab.sim.grammar import parse_input
 
 if TYPE_CHECKING:
@@ -103,14 +104,23 @@ class SimulateTab:
                                       "there too")
             self.duration = gui.add_number("Duration, s", 2.0, min=0.001, max=MAX_DURATION)
             self.dt = gui.add_number("Step, s", 1e-3, min=1e-6, max=0.1, step=1e-4)
-        gui.add_button("Run", color="green").on_click(lambda _: self.run_open_loop())
+        self.run_button = gui.add_button("Run", color="green")
+        self.run_button.on_click(lambda _: self.run_open_loop())
+        self.run_note = Note(gui)
+        app.job_buttons.append(self.run_button)
         with gui.add_folder("Closed loop"):
             self.target = gui.add_vector3("Target x, y, z (m)", (0.0, 0.0, 0.0), step=0.01,
                                           min=(-BIG,) * 3, max=(BIG,) * 3)
             self.move_duration = gui.add_number("Move duration, s", 2.0, min=0.01,
                                                 max=MAX_DURATION)
             self.mode = gui.add_dropdown("Controller", ("cascade", "pid", *app.controllers))
-            gui.add_button("Run move", color="green").on_click(lambda _: self.run_move())
+            self.fit = gui.add_dropdown(
+                "Too fast for the valves", FITS, initial_value=FITS[0],
+                hint="a move asked faster than the actuators allow: stretched to the shortest "
+                     "duration that works (said and stored with the run), or refused")
+            self.move_button = gui.add_button("Run move", color="green")
+            self.move_button.on_click(lambda _: self.run_move())
+            app.job_buttons.append(self.move_button)
             self.verdict = gui.add_markdown("")
         self.gizmo: Any = None
         self.target.on_update(lambda _: self._place_gizmo())
@@ -174,7 +184,14 @@ class SimulateTab:
             return simulate(run_spec, inputs=inputs, duration=duration, dt=dt,
                             initial=initial, label=name, progress=False)
 
-        self.app.jobs.start(f"simulating {spec.name}", work, lambda run: self._store(run, name))
+        self.app.jobs.start(f"simulating {spec.name}", work, lambda run: self._store(run, name),
+                            self.run_note)
+
+    def clear_messages(self) -> None:
+        """Hide the tab's messages."""
+        self.run_note.clear()
+        self._fail(None)
+        self.verdict.content = ""
 
     def _start(self, spec: ManipulatorSpec) -> list[float] | None:
         """The start pose typed (None: blank), one finite number per joint (ControlError)."""
@@ -211,7 +228,8 @@ class SimulateTab:
         position = np.asarray(self.target.value, dtype=float)
         if self.gizmo is None:
             self.gizmo = self.app.server.scene.add_transform_controls(
-                "/target", scale=0.6, disable_rotations=True, position=position)
+                "/target", scale=0.6, disable_rotations=True, position=position,
+                visible=self.app.tab == "Simulate")
             self.gizmo.on_update(lambda _: self._from_gizmo())
         elif not np.allclose(self.gizmo.position, position):
             self.gizmo.position = position
@@ -221,11 +239,13 @@ class SimulateTab:
 
     def run_move(self) -> None:
         """Run the chosen controller (the cascade, the PID-only baseline, or one of yours) to the
-        target and store the run."""
+        target and store the run, with the move in its metadata (``meta["move"]``: target, asked
+        and actual duration, whether the planner stretched it, controller, verdict)."""
         from maniplab.control.move import run_move
 
         spec, target = self.app.spec, [float(x) for x in self.target.value]
         duration, mode = float(self.move_duration.value), self.mode.value
+        fit = FIT_MODES[self.fit.value]
         try:
             name = self._free_name(f"{self.name.value}-{mode}")
             start = self._start(spec)
@@ -234,17 +254,82 @@ class SimulateTab:
             return
 
         def done(result: Any) -> str:
-            missed = result.missed()
-            self.verdict.content = plain(f"health {result.health.summary()}; "
-                                         f"{missed or 'tolerances met'}")
-            return self._store(result.run, name)
+            move = move_record(result, target, duration, mode, fit)
+            self.verdict.content = "  \n".join(
+                (warning if k == 0 and move["stretched"] else plain)(line)
+                for k, line in enumerate(move_lines(move)))
+            return self._store(dataclasses.replace(result.run, meta={**result.run.meta,
+                                                                      "move": move}), name)
+
+        def say(text: str) -> None:  # the job's start, end and failure, next to Run move
+            if text.startswith("stored run"):
+                self.verdict.content = f"{plain(text)}  \n{self.verdict.content}"
+            elif text.endswith("..."):
+                self.verdict.content = plain(text)
+            else:
+                self.verdict.content = warning(text)
 
         self.verdict.content = ""
         factory = self.app.controllers.get(mode)  # your own (gui --controller), else built-in
         self.app.jobs.start(f"{mode} move of {spec.name}",
                             lambda: run_move(spec, target, start=start, duration=duration,
                                              mode="cascade" if factory else mode,
-                                             controller=factory), done)
+                                             controller=factory, fit_mode=fit), done, say)
+
+
+FITS = ("stretch it", "refuse it")
+FIT_MODES = {"stretch it": "stretch", "refuse it": "refuse"}
+
+
+def move_record(result: Any, target: list[float], asked: float, mode: str, fit: str
+                ) -> dict[str, Any]:
+    """What a closed-loop move was asked and what it did, JSON-friendly (a run's
+    ``meta["move"]``): target (m), asked and actual duration (s), stretched, why, the controller,
+    the fit mode, the errors (mm) and the verdict's findings."""
+    plan, metrics = result.plan, result.metrics
+    why = plan.note()
+    if why is not None:  # the command line's advice, said in the page's words
+        why = why.split(" (--fit")[0]
+    return {
+        "target": [float(x) for x in target],
+        "asked_duration": float(asked),
+        "duration": float(plan.move.duration),
+        "stretched": bool(plan.stretched),
+        "why": why,
+        "controller": mode,
+        "fit": fit,
+        "final_error_mm": float(metrics.final_error_mm),
+        "rms_error_mm": float(metrics.rms_error_mm),
+        "missed": result.missed(),
+        "verdict": result.health.verdict,
+        "findings": list(dict.fromkeys(result.health.lines())),
+    }
+
+
+def move_lines(move: dict[str, Any]) -> list[str]:
+    """The move's verdict as lines, each sentence once: the stretch first (asked and actual
+    duration), then the health verdict with its findings, then what was missed (when its cause
+    is not a finding said already)."""
+    lines = []
+    if move["stretched"]:
+        lines.append(f"move stretched: asked {move['asked_duration']:g} s, ran "
+                     f"{move['duration']:.3g} s" + (f" ({move['why'].split(': ', 1)[1]})"
+                                                   if move.get("why") and ": " in move["why"]
+                                                   else ""))
+    else:
+        lines.append(f"move ran in the {move['asked_duration']:g} s asked")
+    findings = move["findings"]
+    lines.append(f"health {move['verdict']}" + (f": {findings[0]}" if findings else ""))
+    lines.extend(findings[1:])
+    missed = move["missed"]
+    if missed is None:
+        lines.append(f"tolerances met (final error {move['final_error_mm']:.3g} mm, RMS "
+                     f"{move['rms_error_mm']:.3g} mm)")
+    else:
+        said = [f.split(": ", 1)[-1] for f in findings]
+        cause = next((s for s in said if s and s in missed), None)
+        lines.append(missed.replace(": " + cause, "") if cause else missed)
+    return lines
 
 
 def _number(text: str, what: str) -> float | None:

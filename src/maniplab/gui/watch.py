@@ -41,7 +41,9 @@ class WatchTab:
         self.play_button = gui.add_button("Play")
         self.play_button.on_click(lambda _: self.toggle())
         self.speed = gui.add_dropdown("Speed", SPEEDS, initial_value="1")
-        gui.add_button("Export HTML replay").on_click(lambda event: self.export(event.client))
+        export = gui.add_button("Export HTML replay")
+        export.on_click(lambda event: self.export(event.client))
+        app.job_buttons.append(export)
         gui.add_button("Back to the arm").on_click(lambda _: self.hide())
         self.message = gui.add_markdown("")
         self.replay: Replay | None = None
@@ -75,10 +77,14 @@ class WatchTab:
     def hide(self) -> None:
         """Take the replay away and show the arm being configured."""
         self.playing.clear()
+        self.play_button.label = "Play"
         with self._lock:
+            shown = self.replay is not None
             self._clear()
         self.key.content = ""
         self._set_arm_visible(True)
+        if shown:  # the floor and camera of the arm being configured again
+            stage(self.app.server, [self.app.spec])
 
     def _clear(self) -> None:
         if self.replay is not None:
@@ -136,7 +142,15 @@ class WatchTab:
             path = self.app.download(f"replay-{'-'.join(names)}"[:64], ".html", page, client)
             return f"replay written to {path} and sent to the browser"
 
-        self.app.jobs.start("exporting the replay", work, done)
+        self.app.jobs.start("exporting the replay", work, done, self._say)
+
+    def _say(self, text: str) -> None:
+        bad = "failed" in text or "busy" in text or "stopped" in text
+        self.message.content = warning(text) if bad else plain(text)
+
+    def clear_messages(self) -> None:
+        """Hide the tab's message."""
+        self.message.content = ""
 
 
 def _key(labels: list[str]) -> str:
