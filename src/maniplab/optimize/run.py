@@ -32,7 +32,8 @@ class OptimizeResult:
         evaluations: every search evaluation, in order (records: values, overrides, feasible,
             reason, metrics, source "computed" or "cache").
         baseline: the base spec's evaluation.
-        best: the best feasible record (first objective), or None.
+        best: the best feasible record by the first objective (several objectives: the Pareto
+            design best by the first, then the next), or None.
         pareto: the feasible records no other dominates (several objectives).
         sensitivity: variable name -> d(first objective)/d(variable) at the best, by central
             finite differences (per unit of the variable; catalogue variables: per step to the
@@ -104,8 +105,10 @@ def optimize(study: str | os.PathLike[str] | dict[str, Any] | Study, *,
         method = run_search(study, evaluator.evaluate)
         history = list(evaluator.history)
         best = results.best(history, study)
-        front = results.pareto(history, study) if len(study.objectives) > 1 else (
-            [best] if best else [])
+        front = [best] if best else []
+        if len(study.objectives) > 1:  # the best is the front's best by the first objective
+            front = results.pareto(history, study)
+            best = front[0] if front else None
         slopes = _sensitivity(evaluator, study, best) if sensitivity and best else {}
     except BaseException:
         if owned and isinstance(pool, cf.ProcessPoolExecutor):

@@ -16,6 +16,7 @@ catalogue variables, else NSGA-II.
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import math
 from collections.abc import Callable, Sequence
@@ -116,15 +117,29 @@ def _differential_evolution(study: Study, batch: Batch) -> None:
     high = np.array([v.high for v in variables], dtype=float)
     integrality = np.array([v.integer for v in variables])
 
+    spent = 0
+
     def mapper(_: Any, population: Any) -> list[float]:
+        nonlocal spent
         candidates = [[round(float(x)) if v.integer else float(x) for v, x in zip(variables, row)]
                       for row in np.atleast_2d(np.asarray(list(population)))]
+        left = study.budget - spent
+        spent += len(candidates)
+        if left < len(candidates):  # scipy's smallest population (5) exceeds a tiny budget
+            batch(candidates[:left])
+            raise _BudgetSpent
         return [score(r, study) for r in batch(candidates)]
 
-    differential_evolution(_unused, Bounds(low, high), seed=study.seed, popsize=max(1, math.ceil(size / n)),
-                           maxiter=generations, tol=0.0, atol=0.0, polish=False,
-                           updating="deferred", workers=mapper, init="latinhypercube",
-                           integrality=integrality if integrality.any() else None)
+    with contextlib.suppress(_BudgetSpent):
+        differential_evolution(_unused, Bounds(low, high), seed=study.seed,
+                               popsize=max(1, math.ceil(size / n)),
+                               maxiter=generations, tol=0.0, atol=0.0, polish=False,
+                               updating="deferred", workers=mapper, init="latinhypercube",
+                               integrality=integrality if integrality.any() else None)
+
+
+class _BudgetSpent(Exception):
+    """The budget ended within differential evolution's first population."""
 
 
 def _unused(x: Any) -> float:  # pragma: no cover - the mapper evaluates, through the cache

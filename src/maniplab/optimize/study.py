@@ -8,7 +8,7 @@ A study is a YAML file (or the same dict)::
     optimizer: auto                 # auto, differential_evolution, nsga2 or grid
     variables:                      # dotted paths as for --set; [i] picks one vector component
       - {path: "joints.q3.actuator.cylinder.pins.child[0]", low: -0.6, high: -0.2}   # m
-      - {path: joints.q3.actuator.cylinder.bore, catalogue: iso3320-bore}            # m
+      - {path: joints.q3.actuator.cylinder.bore, catalogue: iso3320-bore, low: 0.063, high: 0.16}
       - {path: control.rate, low: 100, high: 400, integer: true}                     # Hz
     statics: {points: 9}            # the load chart's grid (points per joint), rating, safety
     duty_cycle:                     # moves run one after another under the cascade (or pid)
@@ -230,6 +230,8 @@ class _Reader:
                optional: bool = False) -> Any:
         if value is None and optional:
             return None
+        if isinstance(value, float) and math.isinf(value) and optional:
+            return value
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(
                 value):
             raise self.fail(loc, f"expected a finite number, got {_shown(value)}")
@@ -322,11 +324,19 @@ class _Reader:
                 raise self.fail((*loc, "integer"), f"expected true or false, got "
                                                    f"{_shown(integer)}")
             if choices:
-                if "low" in v or "high" in v or integer:
-                    raise self.fail((*loc, "low" if "low" in v else "high" if "high" in v
-                                     else "integer"),
-                                    "a catalogue variable takes its values from the list; it "
-                                    "has no bounds")
+                if integer:
+                    raise self.fail((*loc, "integer"), "a catalogue variable takes its values "
+                                                       "from its list")
+                if "catalogue" in v and ("low" in v or "high" in v):  # a range of the catalogue
+                    low = self.number(v.get("low", -math.inf), (*loc, "low"), optional=True)
+                    high = self.number(v.get("high", math.inf), (*loc, "high"), optional=True)
+                    choices = tuple(c for c in choices if low - 1e-12 <= c <= high + 1e-12)
+                    if not choices:
+                        raise self.fail((*loc, "high" if "high" in v else "low"),
+                                        f"no size of {v['catalogue']} lies within the bounds")
+                elif "low" in v or "high" in v:
+                    raise self.fail((*loc, "low" if "low" in v else "high"),
+                                    "a list of choices has no bounds (a catalogue's range may)")
                 out.append(Variable(path, index, choices=choices))
                 continue
             for key in ("low", "high"):
