@@ -167,7 +167,9 @@ def test_the_smallest_standard_bore_meeting_the_payloads_is_the_enumerated_one(
 
 def test_a_resumed_study_computes_nothing_and_an_extended_one_only_the_new(tmp_path: Path) -> None:
     first = optimize(pin_study(tmp_path, budget=60), out=tmp_path / "out", processes=1)
-    assert first.computed > 0 and first.cached == 0
+    # the search starts from the base design, evaluated once as the baseline (served again)
+    assert first.evaluations[0]["values"] == first.baseline["values"] == [1.0, 0.0]
+    assert first.cached == 1 and first.computed == len({r["key"] for r in first.evaluations}) + 4
     again = optimize(pin_study(tmp_path, budget=60), out=tmp_path / "out", processes=1,
                      resume=True)
     assert again.computed == 0

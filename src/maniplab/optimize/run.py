@@ -102,7 +102,7 @@ def optimize(study: str | os.PathLike[str] | dict[str, Any] | Study, *,
         baseline = evaluator.evaluate([_base_values(base, study.variables)])[0]
         baseline["phase"] = "baseline"
         evaluator.history.clear()
-        method = run_search(study, evaluator.evaluate)
+        method = run_search(study, evaluator.evaluate, baseline["values"])
         history = list(evaluator.history)
         best = results.best(history, study)
         front = [best] if best else []

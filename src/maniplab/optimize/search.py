@@ -75,16 +75,32 @@ def score(record: dict[str, Any], study: Study) -> float:
     return float(value) if math.isfinite(value) else 1000.0 * PENALTY
 
 
-def run_search(study: Study, batch: Batch) -> str:
-    """Search within ``study.budget`` evaluations; returns the optimiser used."""
+def run_search(study: Study, batch: Batch, start: Sequence[Any] | None = None) -> str:
+    """Search within ``study.budget`` evaluations; returns the optimiser used.
+
+    ``start``: the base spec's values of the variables; where each lies within its variable's
+    domain, the search starts from them too (differential evolution's first member, NSGA-II's
+    first trial), so a study never ends worse than the design it started from.
+    """
     method = choose(study)
+    if start is not None and not all(_within(v, x) for v, x in zip(study.variables, start)):
+        start = None
     if method == "grid":
         _grid(study, batch)
     elif method == "differential_evolution":
-        _differential_evolution(study, batch)
+        _differential_evolution(study, batch, start)
     else:
-        _nsga2(study, batch)
+        _nsga2(study, batch, start)
     return method
+
+
+def _within(v: Variable, x: Any) -> bool:
+    if v.choices:
+        return x in v.choices
+    if isinstance(x, bool) or not isinstance(x, (int, float)):
+        return False
+    assert v.low is not None and v.high is not None
+    return v.low <= x <= v.high and (not v.integer or float(x).is_integer())
 
 
 def _grid(study: Study, batch: Batch) -> None:
@@ -100,7 +116,7 @@ def population(study: Study) -> int:
     return max(4 if choose(study) == "differential_evolution" else 2, min(size, study.budget))
 
 
-def _differential_evolution(study: Study, batch: Batch) -> None:
+def _differential_evolution(study: Study, batch: Batch, start: Sequence[Any] | None) -> None:
     from scipy.optimize import Bounds, differential_evolution
 
     variables = study.variables
@@ -112,7 +128,9 @@ def _differential_evolution(study: Study, batch: Batch) -> None:
                          field="optimizer")
     n = len(variables)
     size = population(study)
-    generations = max(0, study.budget // size - 1)
+    multiplier = max(1, math.ceil(size / n))
+    # generations enough to spend the whole budget; the mapper stops within the last one
+    generations = max(0, math.ceil(study.budget / max(5, multiplier * n)) - 1)
     low = np.array([v.low for v in variables], dtype=float)
     high = np.array([v.high for v in variables], dtype=float)
     integrality = np.array([v.integer for v in variables])
@@ -125,17 +143,18 @@ def _differential_evolution(study: Study, batch: Batch) -> None:
                       for row in np.atleast_2d(np.asarray(list(population)))]
         left = study.budget - spent
         spent += len(candidates)
-        if left < len(candidates):  # scipy's smallest population (5) exceeds a tiny budget
+        if left < len(candidates):  # the budget ends within this generation
             batch(candidates[:left])
             raise _BudgetSpent
         return [score(r, study) for r in batch(candidates)]
 
     with contextlib.suppress(_BudgetSpent):
         differential_evolution(_unused, Bounds(low, high), seed=study.seed,
-                               popsize=max(1, math.ceil(size / n)),
+                               popsize=multiplier,
                                maxiter=generations, tol=0.0, atol=0.0, polish=False,
                                updating="deferred", workers=mapper, init="latinhypercube",
-                               integrality=integrality if integrality.any() else None)
+                               integrality=integrality if integrality.any() else None,
+                               x0=None if start is None else np.asarray(start, dtype=float))
 
 
 class _BudgetSpent(Exception):
@@ -146,7 +165,7 @@ def _unused(x: Any) -> float:  # pragma: no cover - the mapper evaluates, throug
     raise AssertionError("differential evolution's function is evaluated by the mapper")
 
 
-def _nsga2(study: Study, batch: Batch) -> None:
+def _nsga2(study: Study, batch: Batch, start: Sequence[Any] | None) -> None:
     import optuna
 
     optuna.logging.set_verbosity(optuna.logging.WARNING)
@@ -159,6 +178,9 @@ def _nsga2(study: Study, batch: Batch) -> None:
     directions = [optuna.study.StudyDirection.MAXIMIZE if o.sense == "max" else
                   optuna.study.StudyDirection.MINIMIZE for o in study.objectives]
     search = optuna.create_study(directions=directions, sampler=sampler)
+    if start is not None:
+        search.enqueue_trial({f"x{i}": list(v.choices).index(x) if v.choices else x
+                              for i, (v, x) in enumerate(zip(study.variables, start))})
     done = 0
     while done < study.budget:
         count = min(size, study.budget - done)
