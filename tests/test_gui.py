@@ -260,22 +260,22 @@ def test_the_page_configures_simulates_compares_and_replays(tmp_path: Path) -> N
                      "the arm in the scene (see out/gui-screenshots/1-configure.png)")
 
             # edit a joint: the table and the model follow
-            web.type_into(driver, "body.mass", "1800")
+            web.type_into(driver, "Body mass [kg]", "1800")
             web.wait(lambda: app.spec.joint("q1").body.mass == 1800.0, "the new mass")
             web.text_shown(driver, "1800")
             # a bad value: the spec's one-line error under the field, the arm unchanged
-            web.type_into(driver, "body.mass", "-5")
+            web.type_into(driver, "Body mass [kg]", "-5")
             web.text_shown(driver, "joint q1, field 'body.mass'")
             web.shot(driver, "2-bad-value")
             assert app.spec.joint("q1").body.mass == 1800.0
 
             # two step responses, the second with another payload
             web.tab(driver, "Simulate")
-            web.type_into(driver, "q2", "step:0.5@0.1")
-            web.type_into(driver, "Duration, s", "1")
+            web.type_into(driver, "q2 [A]", "step:0.5@0.1")
+            web.type_into(driver, "Duration [s]", "1")
             web.click(driver, "Run")
             web.text_shown(driver, "stored run 'run'")
-            web.type_into(driver, "Payload mass, kg", "2000")
+            web.type_into(driver, "Payload mass [kg]", "2000")
             web.click(driver, "Run")
             web.text_shown(driver, "stored run 'run-2'")
             web.shot(driver, "3-simulate")
@@ -350,7 +350,7 @@ def test_joints_added_moved_removed_saved_and_exported(tmp_path: Path) -> None:
         assert [j.name for j in app.spec.joints][1:3] == [names[1], f"{names[0]}_2"]
         tab.remove_joint()
         assert [j.name for j in app.spec.joints] == names
-        assert "<td>" + names[0] + "</td>" in str(tab.table.content)
+        assert "<th>" + names[0] + "</th>" in str(tab.table.content)
         tab.file_name.value = "my_gantry"
         tab.save()
         saved = ml.load_spec(tmp_path / "ws" / "specs" / "my_gantry.yaml")
@@ -469,3 +469,83 @@ def test_the_page_says_its_state_next_to_the_control(tmp_path: Path) -> None:
 
 def _wait_shown(driver: Any, xpath: str) -> Any:
     return web.wait(lambda: web.visible(driver, xpath), xpath)
+
+
+_ROWS = """return Array.from(document.querySelectorAll('label')).filter(
+    function(l) { return l.offsetParent !== null; }).map(function(l) {
+    var row = l.closest('.mantine-Flex-root'); var i = row && row.querySelector('input');
+    return [l.textContent.trim(), i ? i.value : null, i ? i.type : null]; });"""
+
+
+def _numeric(text: str) -> bool:
+    """Whether a field's text is a number or a list of numbers."""
+    import yaml
+
+    try:
+        value = yaml.safe_load(text) if text.strip() else None
+    except yaml.YAMLError:
+        return False
+    flat = value if isinstance(value, list) else [value]
+    return bool(flat) and all(isinstance(x, (int, float)) and not isinstance(x, bool)
+                              for x in flat)
+
+
+def test_every_number_on_the_page_carries_its_unit(tmp_path: Path) -> None:
+    """Issue 37, engineering labelling: every numeric field of Configure (each joint of a lumped
+    and of a pinned-cylinder arm) and of Simulate is labelled with its unit in brackets; type
+    and axis are choices; the pressure shown in the unit chosen (bar) and typed back in it; an
+    error names no path inside maniplab."""
+    app = Gui(ml.builtin_spec("erector"), tmp_path / "ws", port=_port())
+    try:
+        with web.chromium() as driver:
+            driver.get(app.url)
+            web.text_shown(driver, "hydraulic")
+            checked = 0
+            for arm in ("erector", "patu655"):
+                if app.spec.name != arm:
+                    app.set_spec(ml.builtin_spec(arm))
+                for joint in [j.name for j in app.spec.joints]:
+                    app.configure.joint.value = joint
+                    app.configure._rebuild_fields()
+                    rows = web.wait(lambda j=joint: (lambda r: r if any(
+                        label == "Joint name" and value == j for label, value, _ in r) else None)(
+                        driver.execute_script(_ROWS)), f"the fields of {joint}")
+                    for label, value, kind in rows:
+                        if kind in ("text", "number", None) and value and _numeric(value):
+                            assert "[" in label and label.endswith("]"), (arm, joint, label, value)
+                            checked += 1
+            web.shot(driver, "units-1-configure")
+            assert checked > 80
+            labels = {label for label, _, _ in driver.execute_script(_ROWS)}
+            assert "Valve nominal pressure drop [MPa]" in labels  # patu655's valve
+            # type and axis are choices, not free text
+            assert isinstance(app.configure.joint_fields[1].input, type(app.configure.joint))
+            assert app.configure.joint_fields[2].options[:3] == ("x", "y", "z")
+            web.tab(driver, "Simulate")
+            web.text_shown(driver, "Input syntax")
+            for label, value, kind in driver.execute_script(_ROWS):
+                if value and _numeric(value) and kind != "checkbox":
+                    assert "[" in label, label
+                    checked += 1
+            web.shot(driver, "units-2-simulate")
+
+            # bar: shown and typed in bar, stored in Pa
+            app.set_spec(ml.builtin_spec("erector"))
+            web.tab(driver, "Configure")
+            app.configure.unit_choice["pressure"].value = "bar"
+            app.configure.joint.value = "q1"
+            app.configure._rebuild_fields()
+            pa = app.spec.joint("q1").actuator.supply_pressure
+            supply = web.field(driver, "Supply pressure [bar]")
+            assert float(supply.get_attribute("value")) == pytest.approx(pa / 1e5)
+            web.type_into(driver, "Supply pressure [bar]", "150")
+            web.wait(lambda: app.spec.joint("q1").actuator.supply_pressure == pytest.approx(1.5e7),
+                     "150 bar stored as 1.5e7 Pa")
+            # an error names the arm's file, not where maniplab is installed
+            web.type_into(driver, "Body mass [kg]", "-5")
+            web.text_shown(driver, "joint q1, field 'body.mass'")
+            shown_errors = " ".join(str(f.error.content) for f in app.configure.joint_fields)
+            assert "erector.yaml" in shown_errors and "maniplab/assets" not in shown_errors
+            web.shot(driver, "units-3-bar")
+    finally:
+        app.close()

@@ -19,6 +19,7 @@ from maniplab.errors import ManiplabError, SpecError
 from maniplab.gui.arm3d import Arm3D
 from maniplab.gui.replay import stage
 from maniplab.gui.text import Note, warning
+from maniplab.gui.units import CHOICES, ENUMS, FIELDS, Units, describe, number, shown, si
 from maniplab.spec import ManipulatorSpec
 from maniplab.spec.yaml_io import dump_yaml, parse_yaml
 
@@ -67,21 +68,42 @@ def lookup(data: dict[str, Any], path: str) -> Any:
 
 
 class Field:
-    """A text input with its error line under it."""
+    """An input with its error line under it: a text (YAML, in the unit its label names) or,
+    for an enumeration, a dropdown."""
 
-    def __init__(self, gui: Any, path: str, hint: str, value: str, apply: Any,
-                 label: str | None = None) -> None:
-        self.path = path
-        self.input = gui.add_text(label or path, value, hint=hint)
+    def __init__(self, gui: Any, path: str, hint: str, value: Any, apply: Any,
+                 label: str | None = None, unit: tuple[str, float] | None = None,
+                 options: tuple[str, ...] | None = None) -> None:
+        self.path, self.unit = path, unit
+        self.options: tuple[str, ...] | None
+        text = text_of(shown(value, unit))
+        if options is not None:
+            self.options = options if text in options else (*options, text)
+            self.input = gui.add_dropdown(label or path, self.options, initial_value=text,
+                                          hint=hint)
+        else:
+            self.options = None
+            self.input = gui.add_text(label or path, text, hint=hint)
         self.error = gui.add_markdown("", visible=False)
         self.quiet = False
         self.input.on_update(lambda _: None if self.quiet else apply(self))
 
-    def show(self, value: str) -> None:
+    def value(self) -> Any:
+        """The value typed, in SI (raises SpecError for text that is not YAML)."""
+        return si(value_of(self.input.value), self.unit)
+
+    def show_value(self, value: Any) -> None:
+        """Show the SI ``value`` (in the field's unit) without applying it."""
+        self.show(text_of(shown(value, self.unit)))
+
+    def show(self, text: str) -> None:
         """Set the text without applying it."""
         self.quiet = True
         try:
-            self.input.value = value
+            if self.options is not None and text not in self.options:
+                self.options = (*self.options, text)
+                self.input.options = self.options
+            self.input.value = text
         finally:
             self.quiet = False
 
@@ -107,10 +129,20 @@ class ConfigureTab:
         gui.add_button("Start from this built-in").on_click(lambda _: self.load_builtin())
         self.builtin_note = Note(gui)
         self.table = gui.add_html("")
+        with gui.add_folder("Units", expand_by_default=False):
+            self.unit_choice = {quantity: gui.add_dropdown(
+                f"{quantity.capitalize()} in", tuple(u for u, _ in options))
+                for quantity, options in CHOICES.items()}
+            for dropdown in self.unit_choice.values():
+                dropdown.on_update(lambda _: self._units_changed())
+        self.units = Units()
         with gui.add_folder("Arm"):
-            self.arm_fields = [Field(gui, path, hint, "", self._apply_arm,
-                                     label="arm name" if path == "name" else None)
-                               for path, hint in ARM_FIELDS]
+            self.arm_fields = []
+            for path, hint in ARM_FIELDS:
+                label, unit = describe(path, self.units)
+                self.arm_fields.append(Field(gui, path, hint, None, self._apply_arm,
+                                             label="Arm name" if path == "name" else label,
+                                             unit=unit))
         with gui.add_folder("Joint"):
             self.joint = gui.add_dropdown("Joint", [j.name for j in app.spec.joints])
             self.joint.on_update(lambda _: None if self._quiet else self._rebuild_fields())
@@ -153,11 +185,11 @@ class ConfigureTab:
         """Show the current arm: table, fields, 3D view. The fields are rebuilt only when the
         selected joint's set of fields changed, so a field being typed in keeps its focus."""
         spec = self.app.spec
-        self.table.content = joint_table(spec)
+        self.table.content = joint_table(spec, self.units)
         data = spec.to_dict()
         for field, (path, _) in zip(self.arm_fields, ARM_FIELDS):
             if field is not self._typed:
-                field.show(text_of(lookup(data, path)))
+                field.show_value(lookup(data, path))
         names = [j.name for j in spec.joints]
         wanted = self._select or self.joint.value
         self._select = None
@@ -194,11 +226,28 @@ class ConfigureTab:
             field.remove()
         spec = self.app.spec
         joint = spec.to_dict()["joints"][spec.joint_index(self.joint.value)]
+        revolute = joint.get("type", "R") == "R"
+        self.joint_fields = []
         with self.fields_folder:
-            self.joint_fields = [Field(self.app.server.gui, path, hint,
-                                       text_of(lookup(joint, path)), self._apply_joint)
-                                 for path, hint in self._paths()]
+            for path, hint in self._paths():
+                label, unit = describe(path, self.units, revolute)
+                self.joint_fields.append(Field(
+                    self.app.server.gui, path, hint, lookup(joint, path), self._apply_joint,
+                    label="Joint name" if path == "name" else label, unit=unit,
+                    options=ENUMS.get(path)))
         self.body_on.value = self.joint.value not in self._masses
+
+    def _units_changed(self) -> None:
+        """Show every field and the table in the units chosen."""
+        self.units = Units(**{q: str(d.value) for q, d in self.unit_choice.items()})
+        spec = self.app.spec
+        self.table.content = joint_table(spec, self.units)
+        data = spec.to_dict()
+        for field, (path, _) in zip(self.arm_fields, ARM_FIELDS):
+            field.unit = describe(path, self.units)[1]
+            field.input.label = "Arm name" if path == "name" else describe(path, self.units)[0]
+            field.show_value(lookup(data, path))
+        self._rebuild_fields()
 
     # --- editing --------------------------------------------------------------------------------
 
@@ -210,7 +259,7 @@ class ConfigureTab:
 
     def _apply(self, field: Field, path: str) -> None:
         try:
-            value = value_of(field.input.value)
+            value = field.value()
             spec = self.app.spec.with_overrides({path: value})
         except ManiplabError as exc:
             field.fail(str(exc))
@@ -230,7 +279,7 @@ class ConfigureTab:
         joint = data["joints"][self.app.spec.joint_index(self.joint.value)]
         for field in self.joint_fields:
             if field is not self._typed:
-                field.show(text_of(lookup(joint, field.path)))
+                field.show_value(lookup(joint, field.path))
 
     def _toggle_body(self) -> None:
         name = self.joint.value
@@ -348,36 +397,56 @@ def home(spec: ManipulatorSpec) -> np.ndarray:
     return q
 
 
-def joint_table(spec: ManipulatorSpec) -> str:
-    """The joints as an HTML table in the paper's vocabulary."""
-    head = ("joint", "R/Tr", "axis", "length m", "unit vector", "mass kg", "COG m",
-            "inertia kg·m²", "limits", "actuator", "friction Fc/Fs/Fv")  # + a cylinder's rod
-    rows = []
-    for joint in spec.joints:
-        body = joint.body
-        cells = (joint.name, "R" if joint.type.value == "R" else "Tr", joint.axis.value,
-                 _g(body.length) if body else "–", _v(body.direction) if body else "–",
-                 _g(body.mass) if body else "0", _v(body.com) if body and body.com else "–",
-                 _v(body.inertia[:3]) if body and body.inertia else "–",
-                 _v(joint.limits) if joint.limits else "none", _actuator(joint),
-                 _friction(joint))
-        rows.append("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in cells) + "</tr>")
+def joint_table(spec: ManipulatorSpec, units: Units | None = None) -> str:
+    """The joints as an HTML table in the paper's vocabulary, one column per joint and one row
+    per quantity with its unit (the limits in the angle unit for a revolute joint, the length
+    unit for a prismatic one)."""
+    units = units or Units()
+    length, metres = units.scale("length")
+    angle, radians = units.scale("angle")
+
+    def limits(joint: Any) -> str:
+        if not joint.limits:
+            return "none"
+        per = radians if joint.type.value == "R" else metres
+        return _v([x / per for x in joint.limits])
+
+    rows: list[tuple[str, Any]] = [
+        ("type", lambda j: "R" if j.type.value == "R" else "Tr"),
+        ("axis", lambda j: j.axis.value),
+        (f"limits [{angle} | {length}]", limits),
+        (f"body length [{length}]", lambda j: number(j.body.length / metres) if j.body else "–"),
+        ("body direction", lambda j: _v(j.body.direction) if j.body else "–"),
+        ("body mass [kg]", lambda j: number(j.body.mass) if j.body else "0"),
+        (f"COG [{length}]", lambda j: _v([x / metres for x in j.body.com])
+         if j.body and j.body.com else "–"),
+        ("Ixx, Iyy, Izz [kg·m²]", lambda j: _v(j.body.inertia[:3])
+         if j.body and j.body.inertia else "–"),
+        ("actuator", _actuator),
+        ("friction Fc / Fs [N·m | N]", lambda j: "/".join(
+            number(x) for x in (j.friction.coulomb, j.friction.static))),
+        ("viscous Fv [N·m·s/rad | N·s/m]", lambda j: number(j.friction.viscous)),
+    ]
+    if any(j.rod_friction is not None for j in spec.joints):
+        rows.append(("rod friction Fc / Fs / Fv [N, N·s/m]", _rod))
     style = ("<style>.ml-joints{border-collapse:collapse;font-size:11px}"
-             ".ml-joints td,.ml-joints th{border:1px solid #ccc;padding:1px 3px;font-size:10px}</style>")
-    header = "".join(f"<th>{html.escape(h)}</th>" for h in head)
-    payload = (f"<p style='font-size:11px'>payload {_g(spec.end_effector.mass)} kg, gravity "
+             ".ml-joints td,.ml-joints th{border:1px solid #ccc;padding:1px 4px;font-size:10px}"
+             ".ml-joints th{text-align:left;font-weight:600}</style>")
+    header = "<tr><th>joint</th>" + "".join(f"<th>{html.escape(j.name)}</th>"
+                                            for j in spec.joints) + "</tr>"
+    body = "".join("<tr><th>" + html.escape(name) + "</th>" + "".join(
+        f"<td>{html.escape(str(cell(j)))}</td>" for j in spec.joints) + "</tr>"
+        for name, cell in rows)
+    payload = (f"<p style='font-size:11px'>payload {number(spec.end_effector.mass)} kg, gravity "
                f"{_v(spec.gravity)} m/s²</p>")
     return (f"{style}<div style='overflow-x:auto'><table class='ml-joints' id='ml-joints'>"
-            f"<tr>{header}</tr>{''.join(rows)}</table></div>{payload}")
+            f"{header}{body}</table></div>{payload}")
 
 
-def _friction(joint: Any) -> str:
-    """Fc/Fs/Fv of the joint, and its cylinder's rod friction in newtons when it has one."""
-    f, rod = joint.friction, joint.rod_friction
-    text = "/".join(_g(x) for x in (f.coulomb, f.static, f.viscous))
-    if rod is not None:
-        text += " + rod " + "/".join(_g(x) for x in (rod.coulomb, rod.static, rod.viscous)) + " N"
-    return text
+def _rod(joint: Any) -> str:
+    rod = joint.rod_friction
+    return "–" if rod is None else "/".join(number(x) for x in (rod.coulomb, rod.static,
+                                                                rod.viscous))
 
 
 def _actuator(joint: Any) -> str:
@@ -386,7 +455,7 @@ def _actuator(joint: Any) -> str:
 
 
 def _g(x: float) -> str:
-    return f"{x:.4g}"
+    return number(x)
 
 
 def _v(values: Any) -> str:
@@ -394,7 +463,18 @@ def _v(values: Any) -> str:
 
 
 def _leaves(joint: dict[str, Any], section: str) -> list[tuple[str, str]]:
-    return [(f"{section}.{key}", f"{section} parameter (YAML)") for key in joint.get(section) or {}]
+    """The fields of a section, its nested sections (a cylinder, its pins, a valve) opened."""
+    out = []
+
+    def walk(node: dict[str, Any], prefix: str) -> None:
+        for key, value in node.items():
+            path = f"{prefix}.{key}"
+            if isinstance(value, dict) and path not in FIELDS:
+                walk(value, path)
+            else:
+                out.append((path, f"{section} parameter ({path}; YAML, in the unit of the label)"))
+    walk(joint.get(section) or {}, section)
+    return out
 
 
 def _fresh(name: str, taken: set[str]) -> str:

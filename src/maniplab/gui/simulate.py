@@ -23,12 +23,16 @@ if TYPE_CHECKING:
     from maniplab.spec import ManipulatorSpec
 
 KINDS = {  # kind -> labels of its first and second number ("" unused)
-    "step": ("amplitude", ""),
-    "impulse": ("area (value·s)", "width, s"),
-    "sine": ("amplitude", "frequency, Hz"),
-    "ramp": ("slope, per s", "until, s"),
+    "step": ("Amplitude [A | N | N·m]", ""),
+    "impulse": ("Area [A·s | N·s | N·m·s]", "Width [s]"),
+    "sine": ("Amplitude [A | N | N·m]", "Frequency [Hz]"),
+    "ramp": ("Slope [A/s | N/s | N·m/s]", "Until [s]"),
 }
 ALL = "all joints"
+UNUSED = "(unused)"
+SYNTAX = ("Input syntax: `step:A@t0`, `sine:A,f@t0`, `ramp:slope,until@t0`, "
+          "`impulse:area,width@t0`, terms joined by `+` (e.g. `step:0.5@0.1+sine:0.1,2`); "
+          "blank: no input")
 BIG = 1e6
 """Bound of the page's free numbers (amplitudes, times, payload kg, target m)."""
 MAX_DURATION = 3600.0
@@ -79,39 +83,39 @@ class SimulateTab:
         self.name = gui.add_text("Run name", "run", hint="stored as runs/NAME.npz ('-2', '-3'... "
                                  "added when taken)")
         with gui.add_folder("Inputs"):
+            gui.add_markdown(SYNTAX)
             self.input_folder = gui.add_folder("Per joint (valve current A, or force/torque)")
             self.inputs: dict[str, Any] = {}
             self.input_error = gui.add_markdown("", visible=False)
             with gui.add_folder("Build a term", expand_by_default=False):
                 self.term_joint = gui.add_dropdown("Joint", ["-"])
                 self.kind = gui.add_dropdown("Signal", tuple(KINDS))
-                self.first = gui.add_number("amplitude", 0.5, min=-BIG, max=BIG)
-                self.second = gui.add_number("second (unused)", 0.0, min=-BIG, max=BIG,
-                                             disabled=True)
+                self.first = gui.add_number(KINDS["step"][0], 0.5, min=-BIG, max=BIG)
+                self.second = gui.add_number(UNUSED, 0.0, min=-BIG, max=BIG, disabled=True)
                 self.kind.on_update(lambda _: self._label_numbers())
-                self.t0 = gui.add_number("from t0, s", 0.1, min=0.0, max=BIG)
+                self.t0 = gui.add_number("Start time t0 [s]", 0.1, min=0.0, max=BIG)
                 gui.add_button("Add term").on_click(lambda _: self.add_term())
                 gui.add_button("Clear joint").on_click(lambda _: self.clear_input())
         with gui.add_folder("Parameters"):
-            self.payload = gui.add_number("Payload mass, kg", 0.0, min=0.0, max=BIG)
+            self.payload = gui.add_number("Payload mass [kg]", 0.0, min=0.0, max=BIG)
             self.target_joint = gui.add_dropdown("Leakage and friction of", [ALL])
-            self.leakage = gui.add_text("Leakage, m³/(s·Pa)", "", hint="blank: the spec's")
-            self.viscous = gui.add_text("Viscous friction", "", hint="N·s/m or N·m·s/rad; "
-                                        "blank: the spec's")
-            self.start = gui.add_text("Start pose q (rad or m)", "", hint="comma-separated, "
+            self.leakage = gui.add_text("Leakage [m³/(s·Pa)]", "", hint="blank: the spec's")
+            self.viscous = gui.add_text("Viscous friction [N·m·s/rad | N·s/m]", "",
+                                        hint="blank: the spec's")
+            self.start = gui.add_text("Start pose q [rad | m]", "", hint="comma-separated, "
                                       "one per joint; blank: all 0 (within the limits). Open "
                                       "loop starts there held against gravity; a move starts "
                                       "there too")
-            self.duration = gui.add_number("Duration, s", 2.0, min=0.001, max=MAX_DURATION)
-            self.dt = gui.add_number("Step, s", 1e-3, min=1e-6, max=0.1, step=1e-4)
+            self.duration = gui.add_number("Duration [s]", 2.0, min=0.001, max=MAX_DURATION)
+            self.dt = gui.add_number("Time step [s]", 1e-3, min=1e-6, max=0.1, step=1e-4)
         self.run_button = gui.add_button("Run", color="green")
         self.run_button.on_click(lambda _: self.run_open_loop())
         self.run_note = Note(gui)
         app.job_buttons.append(self.run_button)
         with gui.add_folder("Closed loop"):
-            self.target = gui.add_vector3("Target x, y, z (m)", (0.0, 0.0, 0.0), step=0.01,
+            self.target = gui.add_vector3("Target x, y, z [m]", (0.0, 0.0, 0.0), step=0.01,
                                           min=(-BIG,) * 3, max=(BIG,) * 3)
-            self.move_duration = gui.add_number("Move duration, s", 2.0, min=0.01,
+            self.move_duration = gui.add_number("Move duration [s]", 2.0, min=0.01,
                                                 max=MAX_DURATION)
             self.mode = gui.add_dropdown("Controller", ("cascade", "pid", *app.controllers))
             self.fit = gui.add_dropdown(
@@ -135,8 +139,9 @@ class SimulateTab:
             for handle in self.inputs.values():
                 handle.remove()
             with self.input_folder:
-                self.inputs = {n: self.app.server.gui.add_text(n, "", hint="e.g. step:0.5@0.1")
-                               for n in names}
+                self.inputs = {n: self.app.server.gui.add_text(
+                    f"{n} [{_input_unit(j)}]", "", hint="e.g. step:0.5@0.1 or "
+                    "sine:0.1,2@0.5+ramp:1,2; blank: no input") for n, j in zip(names, spec.joints)}
             self.term_joint.options = names
             self.target_joint.options = [ALL, *names]
         self.payload.value = spec.end_effector.mass
@@ -145,7 +150,7 @@ class SimulateTab:
     def _label_numbers(self) -> None:
         first, second = KINDS[self.kind.value]
         self.first.label = first
-        self.second.label = second or "second (unused)"
+        self.second.label = second or UNUSED
         self.second.disabled = not second
 
     def clear_input(self) -> None:
@@ -330,6 +335,17 @@ def move_lines(move: dict[str, Any]) -> list[str]:
         cause = next((s for s in said if s and s in missed), None)
         lines.append(missed.replace(": " + cause, "") if cause else missed)
     return lines
+
+
+def _input_unit(joint: Any) -> str:
+    """The unit of a joint's input: a valve current for a hydraulic actuator, else a torque or
+    a force."""
+    kind = str(getattr(getattr(joint.actuator, "type", None), "value",
+                       getattr(joint.actuator, "type", "")))
+    if "hydraulic" in kind or hasattr(joint.actuator, "cylinder"):
+        valve = getattr(joint.actuator, "valve", None)
+        return str(getattr(valve, "command_unit", "A") or "A")
+    return "N·m" if joint.type.value == "R" else "N"
 
 
 def _number(text: str, what: str) -> float | None:

@@ -36,7 +36,7 @@ class WatchTab:
         gui = app.server.gui
         gui.add_button("Show the ticked runs").on_click(lambda _: self.show())
         self.key = gui.add_html("")
-        self.time = gui.add_slider("Time, s", min=0.0, max=1.0, step=1.0 / FPS, initial_value=0.0)
+        self.time = gui.add_slider("Time [s]", min=0.0, max=1.0, step=1.0 / FPS, initial_value=0.0)
         self.time.on_update(lambda _: self._seek())
         self.play_button = gui.add_button("Play")
         self.play_button.on_click(lambda _: self.toggle())
