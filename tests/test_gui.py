@@ -477,6 +477,12 @@ _ROWS = """return Array.from(document.querySelectorAll('label')).filter(
     return [l.textContent.trim(), i ? i.value : null, i ? i.type : null]; });"""
 
 
+def _fields_of(driver: Any, joint: str) -> list[Any] | None:
+    """The page's labelled rows once they show the fields of ``joint``."""
+    rows = driver.execute_script(_ROWS)
+    return rows if ["Joint name", joint] in [r[:2] for r in rows] else None
+
+
 def _numeric(text: str) -> bool:
     """Whether a field's text is a number or a list of numbers."""
     import yaml
@@ -507,9 +513,7 @@ def test_every_number_on_the_page_carries_its_unit(tmp_path: Path) -> None:
                 for joint in [j.name for j in app.spec.joints]:
                     app.configure.joint.value = joint
                     app.configure._rebuild_fields()
-                    rows = web.wait(lambda j=joint: (lambda r: r if any(
-                        label == "Joint name" and value == j for label, value, _ in r) else None)(
-                        driver.execute_script(_ROWS)), f"the fields of {joint}")
+                    rows = web.wait(lambda j=joint: _fields_of(driver, j), f"the fields of {joint}")
                     for label, value, kind in rows:
                         if kind in ("text", "number", None) and value and _numeric(value):
                             assert "[" in label and label.endswith("]"), (arm, joint, label, value)
