@@ -39,6 +39,19 @@ void ml_chambers_flows_many(const ml_chambers* c, int count, const double* x, do
   }
 }
 
+/* The load-holding valves' openings at `count` samples (pa[k], pb[k]), into out (count, 2):
+   0..1 (ml_hold_opening, the pilot at the other chamber's pressure), NaN where a chamber has no
+   holding valve. */
+void ml_chambers_hold_openings(const ml_chambers* c, int count, const double* pa, const double* pb,
+                               double* out) {
+  double slope[2];
+  for (int k = 0; k < count; k++) {
+    out[2 * k] = c->hold_type[0] != ML_HOLD_NONE ? ml_hold_opening(c, 0, pa[k], pb[k], slope) : NAN;
+    out[2 * k + 1] = c->hold_type[1] != ML_HOLD_NONE ? ml_hold_opening(c, 1, pb[k], pa[k], slope)
+                                                     : NAN;
+  }
+}
+
 /* The spool's opening the command u asks for (ml_spool_target). */
 double ml_chambers_spool_target(const ml_chambers* c, double u) { return ml_spool_target(c, u); }
 

@@ -78,7 +78,20 @@ typedef struct {
                                  local compensator before the edge (or none) */
   double cushion_length;      /* m: the end cushions' length at both ends (0: none) */
   double cushion_gain;        /* K of a cushion's throttle at the very end, m^3/(s sqrt(Pa)) */
+  /* each chamber's load-holding valve ([0] A, [1] B; ml_hold_opening): */
+  double hold_type[2];        /* ML_HOLD_NONE, ML_HOLD_COUNTERBALANCE or ML_HOLD_PILOT_CHECK */
+  double hold_setting[2];     /* a counterbalance valve's crack pressure, a pilot-operated
+                                 check's spring in pilot pressure (gauge, above the tank's), Pa */
+  double hold_ratio[2];       /* its pilot ratio */
+  double hold_gain[2];        /* K fully open, m^3/(s sqrt(Pa)) */
+  double hold_band[2];        /* the pressure from cracked to fully open, Pa */
+  double hold_leakage[2];     /* its seat's leakage, closed, m^3/(s Pa) */
+  double burst[2];            /* 1: the chamber's line is open to the atmosphere (a burst hose,
+                                 at the tank's pressure) */
+  double burst_gain[2];       /* K of each burst line's open end, m^3/(s sqrt(Pa)) */
 } ml_chambers;
+
+enum { ML_HOLD_NONE, ML_HOLD_COUNTERBALANCE, ML_HOLD_PILOT_CHECK };
 
 /* The spool's opening the command u asks for (its steady position), -1..1: the characteristic's
    points interpolated (held beyond its ends), or 0 within the deadband and linear beyond it to
@@ -256,18 +269,118 @@ static inline double ml_cushioned_slope(const ml_chambers* c, double edge, doubl
   return 1.0 / (r * sqrt(r));
 }
 
+/* The ramp min(max(e, 0), 1) with its corners rounded over ML_RAMP_ROUND on each side (a
+   parabola that meets the lines with their slopes), and its slope into *slope: continuous with
+   its slope, so that the exponential step stays second order across them. */
+#define ML_RAMP_ROUND 0.05
+static inline double ml_smooth_ramp(double e, double* slope) {
+  double d = ML_RAMP_ROUND;
+  if (!(e > -d)) {
+    *slope = 0.0;
+    return 0.0;
+  }
+  if (e >= 1.0 + d) {
+    *slope = 0.0;
+    return 1.0;
+  }
+  if (e < d) {
+    *slope = (e + d) / (2.0 * d);
+    return (e + d) * (e + d) / (4.0 * d);
+  }
+  if (e > 1.0 - d) {
+    *slope = (1.0 + d - e) / (2.0 * d);
+    return 1.0 - (1.0 + d - e) * (1.0 + d - e) / (4.0 * d);
+  }
+  *slope = 1.0;
+  return e;
+}
+
+/* The opening (0..1) of chamber k's load-holding valve at the chamber's pressure p and the pilot
+   pressure `pilot` (the other line's), and its slopes d/dp and d/dpilot (1/Pa) into slope[2]:
+   the excess over the setting divided by the band, within 0..1. Gauge pressures (above the
+   tank's, Pt):
+
+     counterbalance:        (p - Pt) + R (pilot - Pt) - p_c    (the load and the pilot open it)
+     pilot-operated check:  R (pilot - Pt - p_s) - (p - Pt)    (the load holds it shut)
+
+   so a counterbalance valve cracks where p + R pilot reaches its setting and a pilot-operated
+   check where its pilot reaches (p - Pt)/R + p_s (its outlet drained). */
+static inline double ml_hold_opening(const ml_chambers* c, int k, double p, double pilot,
+                                     double* slope) {
+  double t = c->tank, r = c->hold_ratio[k], w = c->hold_band[k], excess, sign;
+  if (c->hold_type[k] == ML_HOLD_COUNTERBALANCE) {
+    excess = (p - t) + r * (pilot - t) - c->hold_setting[k];
+    sign = 1.0;
+  } else {
+    excess = r * (pilot - t - c->hold_setting[k]) - (p - t);
+    sign = -1.0;
+  }
+  double dz, z = ml_smooth_ramp(excess / w, &dz);
+  slope[0] = sign * dz / w;
+  slope[1] = r * dz / w;
+  return z;
+}
+
+/* The flow leaving chamber k (pressure p, the other chamber's p_other) to the tank through its
+   line, m^3/s, with `edge` the gain of the valve's meter-out edge that drains it (end cushion
+   included; 0 while the spool does not drain it), and its derivatives by p, p_other and edge
+   into d[3] (NULL: not wanted). The ways out, each an orifice K g(p - Pt):
+
+     no holding valve:      K = edge
+     holding valve:         K = edge K_h z / sqrt(edge^2 + (K_h z)^2)  (the two in series, the
+                            line between them without volume); its check lets the meter-in
+                            edge's oil in freely (ml_valve_edges_at)
+     burst line, valve:     K = K_h z  (the line at the tank's pressure)
+     burst line, no valve:  K = K_burst, the line's open end
+
+   with the pilot at the other line's pressure (the tank's when that line has burst), plus the
+   holding valve's seat leakage L_h (p - Pt) while its line is open to the tank. */
+static inline double ml_way_out(const ml_chambers* c, int k, double p, double p_other, double edge,
+                                double* d) {
+  double l = c->laminar, root = ml_orifice_root(p - c->tank, l);
+  int burst = c->burst[k] != 0.0;
+  double gain, d_p = 0.0, d_other = 0.0, d_edge = burst ? 0.0 : 1.0, leak = 0.0;
+  if (c->hold_type[k] == ML_HOLD_NONE) {
+    gain = burst ? c->burst_gain[k] : edge;
+  } else {
+    double slope[2], pilot_burst = c->burst[1 - k] != 0.0;
+    double z = ml_hold_opening(c, k, p, pilot_burst ? c->tank : p_other, slope);
+    double v = c->hold_gain[k] * z, dv = 0.0;
+    if (burst) {
+      gain = v;
+      dv = 1.0;
+    } else {
+      double r = edge * edge + v * v, r3 = r * sqrt(r);
+      gain = r > 0.0 ? edge * v / sqrt(r) : 0.0;
+      d_edge = r > 0.0 ? v * v * v / r3 : 0.0;
+      dv = r > 0.0 ? edge * edge * edge / r3 : 0.0;
+    }
+    d_p = dv * c->hold_gain[k] * slope[0];
+    d_other = pilot_burst ? 0.0 : dv * c->hold_gain[k] * slope[1];
+    leak = burst || edge > 0.0 ? c->hold_leakage[k] : 0.0;
+  }
+  if (d) {
+    d[0] = gain * ml_orifice_slope(p - c->tank, l) + d_p * root + leak;
+    d[1] = d_other * root;
+    d[2] = d_edge * root;
+  }
+  return gain * root + leak * (p - c->tank);
+}
+
 /* The valve's flows into the chambers (Q_A, Q_B) at opening x and piston travel y (m from fully
-   retracted), m^3/s: ml_valve_edges with the end cushions (the cap side drains through the
-   retracted end's, the rod side through the extended end's). */
+   retracted), m^3/s: the meter-in edge's (none into a burst line's chamber) less the way out
+   (ml_way_out) through the meter-out edge with the end cushions (the cap side drains through
+   the retracted end's, the rod side through the extended end's). */
 static inline void ml_valve_edges_at(const ml_chambers* c, double x, double pa, double pb,
                                      double y, double* qa, double* qb) {
   double open = x > 0.0 ? x : 0.0, reverse = x < 0.0 ? -x : 0.0;
-  double l = c->laminar;
   double ps = ml_supply_seen(c, pa, pb, x);
-  *qa = c->gain_a * open * ml_meter_in_root(c, ml_metering_drop(c, ps, pa)) -
-        ml_cushioned(c, c->out_a * reverse, y) * ml_orifice_root(pa - c->tank, l);
-  *qb = c->gain_b * reverse * ml_meter_in_root(c, ml_metering_drop(c, ps, pb)) -
-        ml_cushioned(c, c->out_b * open, c->stroke - y) * ml_orifice_root(pb - c->tank, l);
+  double in_a = c->burst[0] != 0.0 ? 0.0 : open;
+  double in_b = c->burst[1] != 0.0 ? 0.0 : reverse;
+  *qa = c->gain_a * in_a * ml_meter_in_root(c, ml_metering_drop(c, ps, pa)) -
+        ml_way_out(c, 0, pa, pb, ml_cushioned(c, c->out_a * reverse, y), NULL);
+  *qb = c->gain_b * in_b * ml_meter_in_root(c, ml_metering_drop(c, ps, pb)) -
+        ml_way_out(c, 1, pb, pa, ml_cushioned(c, c->out_b * open, c->stroke - y), NULL);
 }
 
 /* The valve's flows into the chambers (Q_A, Q_B) at opening x, m^3/s, away from the cushions
@@ -277,12 +390,20 @@ static inline void ml_valve_edges(const ml_chambers* c, double x, double pa, dou
   ml_valve_edges_at(c, x, pa, pb, 0.5 * c->stroke, qa, qb);
 }
 
+/* The pressure of the line a meter-in edge feeds: the chamber's, or the tank's where the line
+   has burst (chamber k, pressure p). */
+static inline double ml_line_pressure(const ml_chambers* c, int k, double p) {
+  return c->burst[k] != 0.0 ? c->tank : p;
+}
+
 /* The flow the valve draws from the supply line at pressure ps: through P->A (x > 0) or P->B
-   (x < 0), m^3/s. */
+   (x < 0), m^3/s (into a burst line too). */
 static inline double ml_supply_draw(const ml_chambers* c, double x, double pa, double pb,
                                     double ps) {
-  if (x >= 0.0) return c->gain_a * x * ml_meter_in_root(c, ml_metering_drop(c, ps, pa));
-  return -c->gain_b * x * ml_meter_in_root(c, ml_metering_drop(c, ps, pb));
+  if (x >= 0.0) {
+    return c->gain_a * x * ml_meter_in_root(c, ml_metering_drop(c, ps, ml_line_pressure(c, 0, pa)));
+  }
+  return -c->gain_b * x * ml_meter_in_root(c, ml_metering_drop(c, ps, ml_line_pressure(c, 1, pb)));
 }
 
 /* (dpA/dt, dpB/dt, dx/dt) at current u (clipped), length s and its rate sdot. */
@@ -305,36 +426,35 @@ static inline void ml_chambers_jacobian_law(const ml_chambers* c, double pa, dou
                                             double u, double s, double* J) {
   double va, vb;
   ml_chamber_volumes(c, s, &va, &vb);
-  double l = c->laminar;
   int forward = x > 0.0 || (x == 0.0 && ml_spool_target(c, u) >= 0.0);
-  double dqa_dpa, dqa_dx, dqb_dpb, dqb_dx;
+  double open = x > 0.0 ? x : 0.0, reverse = x < 0.0 ? -x : 0.0;
   /* on a load-sensing pump that this section's load sets, the supply follows the chamber the
      meter-in edge feeds: the drop, and the edge's flow, do not change with it */
   double ps = ml_supply_seen(c, pa, pb, x), follows = 1.0 - ml_supply_follows(c, pa, pb, x);
-  if (forward) { /* P -> A, B -> T */
-    double up = ml_metering_drop(c, ps, pa), down = pb - c->tank;
-    double y = c->stroke - ml_travel(c, s), edge = c->out_b * (x > 0.0 ? x : 0.0);
-    double gain = ml_cushioned(c, edge, y);
-    dqa_dpa = c->gain_a * x * ml_meter_in_slope(c, up) * ml_metering_slope(c, pa) * follows;
-    dqa_dx = c->gain_a * ml_meter_in_root(c, up);
-    dqb_dpb = -gain * ml_orifice_slope(down, l);  /* forward: x >= 0 */
-    dqb_dx = -c->out_b * ml_cushioned_slope(c, edge, y) * ml_orifice_root(down, l);
-  } else {       /* P -> B, A -> T */
-    double up = ml_metering_drop(c, ps, pb), down = pa - c->tank;
-    double y = ml_travel(c, s), edge = c->out_a * (x < 0.0 ? -x : 0.0);
-    double gain = ml_cushioned(c, edge, y);
-    dqa_dpa = -gain * ml_orifice_slope(down, l);  /* reverse: x <= 0 */
-    dqa_dx = c->out_a * ml_cushioned_slope(c, edge, y) * ml_orifice_root(down, l);
-    dqb_dpb = -c->gain_b * x * ml_meter_in_slope(c, up) * ml_metering_slope(c, pb) * follows;
-    dqb_dx = -c->gain_b * ml_meter_in_root(c, up);
+  double in_a_p = 0.0, in_a_x = 0.0, in_b_p = 0.0, in_b_x = 0.0;
+  if (forward && c->burst[0] == 0.0) { /* P -> A */
+    double up = ml_metering_drop(c, ps, pa);
+    in_a_p = c->gain_a * open * ml_meter_in_slope(c, up) * ml_metering_slope(c, pa) * follows;
+    in_a_x = c->gain_a * ml_meter_in_root(c, up);
+  } else if (!forward && c->burst[1] == 0.0) { /* P -> B */
+    double up = ml_metering_drop(c, ps, pb);
+    in_b_p = c->gain_b * reverse * ml_meter_in_slope(c, up) * ml_metering_slope(c, pb) * follows;
+    in_b_x = -c->gain_b * ml_meter_in_root(c, up);
   }
+  /* the ways out: A -> T opens with -x, B -> T with +x (each edge's gain within its cushion) */
+  double ya = ml_travel(c, s), yb = c->stroke - ya, da[3], db[3];
+  double ea = c->out_a * reverse, eb = c->out_b * open;
+  double ea_x = forward ? 0.0 : -c->out_a * ml_cushioned_slope(c, ea, ya);
+  double eb_x = forward ? c->out_b * ml_cushioned_slope(c, eb, yb) : 0.0;
+  ml_way_out(c, 0, pa, pb, ml_cushioned(c, ea, ya), da);
+  ml_way_out(c, 1, pb, pa, ml_cushioned(c, eb, yb), db);
   double ka = c->bulk_modulus / va, kb = c->bulk_modulus / vb, leak = c->leakage;
-  J[0] = ka * (dqa_dpa - leak);
-  J[1] = ka * leak;
-  J[2] = ka * dqa_dx;
-  J[3] = kb * leak;
-  J[4] = kb * (dqb_dpb - leak);
-  J[5] = kb * dqb_dx;
+  J[0] = ka * (in_a_p - da[0] - leak);
+  J[1] = ka * (leak - da[1]);
+  J[2] = ka * (in_a_x - da[2] * ea_x);
+  J[3] = kb * (leak - db[1]);
+  J[4] = kb * (in_b_p - db[0] - leak);
+  J[5] = kb * (in_b_x - db[2] * eb_x);
   J[6] = 0.0;
   J[7] = 0.0;
   J[8] = -c->inv_tau;
@@ -347,21 +467,61 @@ static inline void ml_chambers_jacobian_law(const ml_chambers* c, double pa, dou
    return oil carries into the tank line (Pt Q), the loss in the end cushions' throttles, the work
    on the piston ((pA A_A - pB A_B) ds/dt
    with the pressures within their bounds, as the mechanics sees them; negative where the load
-   drives it) and the energy put into compressing the oil
-   (pA V_A dpA/dt + pB V_B dpB/dt) / E. At each instant
+   drives it), the energy put into compressing the oil
+   (pA V_A dpA/dt + pB V_B dpB/dt) / E, the loss across the load-holding valves, and the loss
+   where a burst line spills its oil. At each instant
 
      pump = meter_in + compensator + meter_out + leakage + relief + anticavitation + tank + work
-            + compression + cushion,
+            + compression + cushion + holding + burst,
 
    which is the chambers' continuity multiplied by their pressures: the balance closes by the
    equations, and a missing flow would break it. */
 enum { ML_E_PUMP, ML_E_METER_IN, ML_E_COMPENSATOR, ML_E_METER_OUT, ML_E_LEAKAGE, ML_E_RELIEF,
-       ML_E_ANTICAVITATION, ML_E_TANK, ML_E_WORK, ML_E_COMPRESSION, ML_E_CUSHION, ML_ENERGIES };
+       ML_E_ANTICAVITATION, ML_E_TANK, ML_E_WORK, ML_E_COMPRESSION, ML_E_CUSHION, ML_E_HOLDING,
+       ML_E_BURST, ML_ENERGIES };
 
 /* After the energies, the time integral of the supply pressure this section sees (Pa s): a fixed
    displacement pump delivers Q_max at it, the flow its sections do not take over its relief. */
 #define ML_SUPPLY_TIME ML_ENERGIES
 #define ML_ACCUMULATED (ML_ENERGIES + 1)
+
+/* The oil leaving chamber k at pressure p (the other's p_other) through the meter-out `edge`
+   at `distance` (m) from the end the piston moves towards: its power (p - Pt) Q split into
+   powers[] by the drops of the orifices in series (each Q^2 over its gain squared: shares
+   1/edge^2, t^2 for the cushion's throttle 1/t and 1/(K_h z)^2 for the holding valve; a burst
+   line's spill to ML_E_BURST), and Pt Q to the tank. */
+static inline void ml_way_out_powers(const ml_chambers* c, int k, double p, double p_other,
+                                     double edge, double distance, double* powers) {
+  double t = ml_cushion_throttle(c, distance);
+  double out = ml_way_out(c, k, p, p_other, ml_cushioned(c, edge, distance), NULL);
+  double power = (p - c->tank) * out;
+  powers[ML_E_TANK] += c->tank * out;
+  if (c->hold_type[k] == ML_HOLD_NONE) {
+    if (c->burst[k] != 0.0) {
+      powers[ML_E_BURST] += power;
+      return;
+    }
+    double et2 = edge * edge * t * t;
+    powers[ML_E_CUSHION] += power * et2 / (1.0 + et2);
+    powers[ML_E_METER_OUT] += power / (1.0 + et2);
+    return;
+  }
+  if (c->burst[k] != 0.0) {
+    powers[ML_E_HOLDING] += power;
+    return;
+  }
+  double slope[2], pilot = c->burst[1 - k] != 0.0 ? c->tank : p_other;
+  double v = c->hold_gain[k] * ml_hold_opening(c, k, p, pilot, slope);
+  double leak = edge > 0.0 ? c->hold_leakage[k] * (p - c->tank) : 0.0;
+  double through = out - leak;  /* the metered oil; the seat's leakage is the valve's loss */
+  powers[ML_E_HOLDING] += (p - c->tank) * leak;
+  if (!(edge > 0.0 && v > 0.0)) return;
+  double r_edge = 1.0 / (edge * edge), r_cushion = t * t, r_hold = 1.0 / (v * v);
+  double share = (p - c->tank) * through / (r_edge + r_cushion + r_hold);
+  powers[ML_E_METER_OUT] += share * r_edge;
+  powers[ML_E_CUSHION] += share * r_cushion;
+  powers[ML_E_HOLDING] += share * r_hold;
+}
 
 /* The powers (W) of the energy terms at one instant (the relief and anti-cavitation valves act
    at the bounds, ml_chambers_bound_energy), and the supply pressure: powers[ML_ACCUMULATED]. */
@@ -369,26 +529,24 @@ static inline void ml_chambers_powers(const ml_chambers* c, double pa, double pb
                                       double s, double sdot, double* powers) {
   double ps = ml_supply_seen(c, pa, pb, x), qa, qb, y = ml_travel(c, s);
   ml_valve_edges_at(c, x, pa, pb, y, &qa, &qb);
-  double fed = x > 0.0 ? pa : pb, drained = x > 0.0 ? pb : pa;
-  double in = x > 0.0 ? qa : (x < 0.0 ? qb : 0.0), out = x > 0.0 ? -qb : (x < 0.0 ? -qa : 0.0);
-  double drop = ps - fed, leak = c->leakage * (pa - pb);
-  double seen = ml_compensated_drop(c, ml_metering_drop(c, ps, fed));
   for (int k = 0; k < ML_ENERGIES; k++) powers[k] = 0.0;
   powers[ML_SUPPLY_TIME] = ps;
+  /* the meter-in edge: its oil goes into the chamber, or spills from a burst line */
+  int fed = x > 0.0 ? 0 : 1;
+  double line = ml_line_pressure(c, fed, fed == 0 ? pa : pb);
+  double in = x != 0.0 ? ml_supply_draw(c, x, pa, pb, ps) : 0.0;
+  double seen = ml_compensated_drop(c, ml_metering_drop(c, ps, line));
   powers[ML_E_PUMP] = ps * in;
   powers[ML_E_METER_IN] = seen * in;
-  powers[ML_E_COMPENSATOR] = (drop - seen) * in;
-  /* within an end cushion the drained chamber's drop splits between the cushion's throttle and
-     the meter-out edge in series: the throttle's share is e^2 t^2 / (1 + e^2 t^2) (each
-     orifice's drop is Q^2 over its gain squared; e the edge's gain, 1/t the throttle's) */
-  double outflow = (drained - c->tank) * out;
-  double e = (x > 0.0 ? c->out_b : c->out_a) * fabs(x);
-  double t = ml_cushion_throttle(c, x > 0.0 ? c->stroke - y : y), et2 = e * e * t * t;
-  double cushioned = outflow * et2 / (1.0 + et2);
-  powers[ML_E_METER_OUT] = outflow - cushioned;
-  powers[ML_E_CUSHION] = cushioned;
+  powers[ML_E_COMPENSATOR] = (ps - line - seen) * in;
+  if (c->burst[fed] != 0.0) {
+    powers[ML_E_TANK] += c->tank * in;
+  }
+  /* the ways out, each within its end cushion */
+  ml_way_out_powers(c, 0, pa, pb, c->out_a * (x < 0.0 ? -x : 0.0), y, powers);
+  ml_way_out_powers(c, 1, pb, pa, c->out_b * (x > 0.0 ? x : 0.0), c->stroke - y, powers);
+  double leak = c->leakage * (pa - pb);
   powers[ML_E_LEAKAGE] = (pa - pb) * leak;
-  powers[ML_E_TANK] = c->tank * out;
   powers[ML_E_COMPRESSION] = pa * (qa - c->area_a * sdot - leak) + pb * (qb + c->area_b * sdot + leak);
   /* the piston works against the pressures within their bounds, as the mechanics sees them;
      where a pressure is beyond a bound within the step, the piston's share above it is the

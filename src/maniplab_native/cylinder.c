@@ -73,7 +73,8 @@ static const char* kAttributes[] = {
     "area_a", "area_b", "dead_a", "dead_b", "min_length", "stroke", "bulk_modulus", "leakage",
     "gain_a", "gain_b", "laminar", "supply_pressure", "tank_pressure", "relief_pressure",
     "valve_tau", "current_limit", "pump_flow", "out_a", "out_b", "compensator_margin",
-    "pump_ls_margin", "deadband", "characteristic", "pump_response", "flow_sharing", "cushion"};
+    "pump_ls_margin", "deadband", "characteristic", "pump_response", "flow_sharing", "cushion",
+    "holding_a", "holding_b", "burst_gain"};
 
 static int required(const mjModel* m, int instance, const char* key, double* value, int positive) {
   return ml_config_required(m, instance, PLUGIN, key, value, positive);
@@ -96,8 +97,35 @@ static int optional_positive(const mjModel* m, int instance, const char* key, do
   return 0;
 }
 
+/* A chamber's load-holding valve "type setting ratio gain band leakage" (chambers.h's hold_*:
+   type 1 counterbalance, 2 pilot-operated check), into slot k; none when absent. */
+static int read_holding(const mjModel* m, int instance, const char* key, int k, ml_chambers* c) {
+  double v[6];
+  int count = ml_config_numbers(m, instance, key, v, 6);
+  if (count < 0) return -1;
+  if (count == 0) return 0;
+  if (count != 6 || (v[0] != ML_HOLD_COUNTERBALANCE && v[0] != ML_HOLD_PILOT_CHECK) ||
+      !(v[1] >= 0.0) || !(v[2] > 0.0) || !(v[3] > 0.0) || !(v[4] > 0.0) || !(v[5] >= 0.0)) {
+    mju_warning(PLUGIN ": %s needs 'type setting ratio gain band leakage': type 1 or 2, the "
+                "ratio, gain and band positive, setting and leakage not negative", key);
+    return -1;
+  }
+  c->hold_type[k] = v[0];
+  c->hold_setting[k] = v[1];
+  c->hold_ratio[k] = v[2];
+  c->hold_gain[k] = v[3];
+  c->hold_band[k] = v[4];
+  c->hold_leakage[k] = v[5];
+  return 0;
+}
+
+/* A burst line's open end when the spec gives no hose bore: half an inch, discharge
+   coefficient 0.7, oil of 870 kg/m^3 (K = C_d pi d^2 / 4 sqrt(2 / rho)), m^3/(s sqrt(Pa)). */
+#define ML_BURST_GAIN (0.7 * 0.25 * 3.141592653589793 * 0.0127 * 0.0127 * 0.04794633014853841)
+
 static int read_law(const mjModel* m, int instance, ml_chambers* c) {
   double tau, limit;
+  c->burst_gain[0] = c->burst_gain[1] = ML_BURST_GAIN;
   if (required(m, instance, "area_a", &c->area_a, 1) ||
       required(m, instance, "area_b", &c->area_b, 1) ||
       required(m, instance, "dead_a", &c->dead_a, 1) ||
@@ -155,6 +183,14 @@ static int read_law(const mjModel* m, int instance, ml_chambers* c) {
     }
     c->cushion_length = cushion[0];
     c->cushion_gain = cushion[1];
+  }
+  if (read_holding(m, instance, "holding_a", 0, c) || read_holding(m, instance, "holding_b", 1, c)) {
+    return -1;
+  }
+  int ends = ml_config_numbers(m, instance, "burst_gain", c->burst_gain, 2);
+  if (ends < 0 || (ends && (ends != 2 || !(c->burst_gain[0] > 0.0) || !(c->burst_gain[1] > 0.0)))) {
+    mju_warning(PLUGIN ": burst_gain needs two positive gains (the A and B lines' open ends)");
+    return -1;
   }
   c->relief = 0.0;
   int has_relief = ml_config_number(m, instance, "relief_pressure", &c->relief);
@@ -250,6 +286,18 @@ static const double* drawing_states(const mjModel* m, const mjData* d, int i, co
   return d->act + m->actuator_actadr[c->actuator];
 }
 
+/* Which of the cylinder's lines have burst by the time t: a run's scenario writes the time a
+   chamber's line bursts into d->userdata[2 + 2 actuator + k] (0: it does not), the model
+   holding nuserdata >= 2 + 2 nu. */
+static void burst_lines(const mjModel* m, const mjData* d, const Cylinder* c, double t,
+                        ml_chambers* law) {
+  int slot = 2 + 2 * c->actuator;
+  for (int k = 0; k < 2; k++) {
+    double when = slot + k < m->nuserdata ? d->userdata[slot + k] : 0.0;
+    law->burst[k] = when > 0.0 && t >= when ? 1.0 : 0.0;
+  }
+}
+
 static double sensed_max(const mjModel* m, const mjData* d, int skip, double tank, int predicted);
 
 /* The shared supply's total draw at pressure ps: every cylinder of this plugin on the pump, at
@@ -261,6 +309,7 @@ static double pump_draw(const mjModel* m, const mjData* d, double ps, int predic
     if (m->plugin[i] != g_slot || c == NULL || c->pump_flow <= 0.0) continue;
     const double* x = drawing_states(m, d, i, c, predicted);
     ml_chambers law = c->law;
+    burst_lines(m, d, c, d->time, &law);
     if (law.post > 0.0) law.ls_others = sensed_max(m, d, i, law.tank, predicted);
     total += ml_supply_draw(&law, x[2], x[0], x[1], ps);
   }
@@ -397,8 +446,10 @@ static double pump_pressure(const mjModel* m, const mjData* d, const Cylinder* c
 
 /* The law over the recorded step: the supply pressure (cap) and, on a load-sensing pump, its
    margin and the other sections' load-sense pressure. */
-static ml_chambers step_law(const Cylinder* c, const mjtNum* state) {
+static ml_chambers step_law(const mjModel* m, const mjData* d, const Cylinder* c,
+                            const mjtNum* state) {
   ml_chambers law = c->law;
+  burst_lines(m, d, c, state[START_TIME], &law);
   law.supply = state[START_SUPPLY];
   if (c->pump_flow > 0.0 && c->ls_margin > 0.0 && c->pump_tau <= 0.0 && !state[MEASURED]) {
     law.ls_margin = c->ls_margin;
@@ -460,7 +511,7 @@ static void act_dot(const mjModel* m, mjData* d, int instance) {
       state[START_OTHERS] = sensed_max(m, d, instance, c->law.tank, CURRENT);
     }
   }
-  law = step_law(c, state);
+  law = step_law(m, d, c, state);
   ml_chambers_rates_law(&law, y[0], y[1], y[2], ml_control(m, d, c->actuator), s, sdot,
                         d->act_dot + adr);
 }
@@ -479,7 +530,7 @@ static void pump_over_step(const mjModel* m, mjData* d) {
     const Cylinder* c = (const Cylinder*)d->plugin_data[i];
     if (m->plugin[i] != g_slot || c == NULL || c->pump_flow <= 0.0) continue;
     mjtNum* state = d->plugin_state + m->plugin_stateadr[i];
-    ml_chambers law = step_law(c, state);
+    ml_chambers law = step_law(m, d, c, state);
     start = state[START_SUPPLY];
     pump = state[PUMP_P];
     double s0 = state[START_S], sdot0 = state[START_SDOT], sdot1 = length_rate(m, d, c);
@@ -521,7 +572,7 @@ static void advance(const mjModel* m, mjData* d, int instance) {
   double since = d->time - state[START_TIME];  /* MuJoCo has advanced the time by h */
   if (state[HAVE_START] && fabs(since - h) <= 1e-9 * (h + fabs(d->time))) {
     if (c->pump_flow > 0.0 && state[PUMP_DUE]) pump_over_step(m, d);
-    ml_chambers law = step_law(c, state);
+    ml_chambers law = step_law(m, d, c, state);
     double s0 = state[START_S], sdot0 = state[START_SDOT], sdot1 = length_rate(m, d, c);
     double s1 = s0 + 0.5 * h * (sdot0 + sdot1), va, vb;
     ml_chambers_step_energy(&law, state + START_Y, ml_control(m, d, c->actuator), s0, sdot0, s1,
@@ -544,7 +595,7 @@ static void compute(const mjModel* m, mjData* d, int instance, int capability_bi
   if (state[HAVE_START] && since > 0.0 && since <= m->opt.timestep * (1.0 + 1e-9)) {
     /* a stage within the step: the pressures from the step's start to this stage's time, with
        the cylinder moving as this stage has it move */
-    ml_chambers law = step_law(c, state);
+    ml_chambers law = step_law(m, d, c, state);
     double s = d->actuator_length[c->output], sdot = d->actuator_velocity[c->output];
     double share = since / m->opt.timestep;
     double supply = state[START_SUPPLY] + share * (state[END_SUPPLY] - state[START_SUPPLY]);

@@ -209,6 +209,8 @@ class ActuatorPlugin(abc.ABC):
         energy: how a run accounts the actuator's hydraulic energy: "plugin" (its engine
             plugin keeps the terms of :mod:`maniplab.sim.energy`), "unaccounted" (hydraulic,
             not accounted), None (no hydraulic energy).
+        lines: the hydraulic lines a run's hose-burst scenario can open (``("a", "b")`` for
+            a two-chamber cylinder's; :mod:`maniplab.sim.bursts`); empty for none.
         variants: other models under the same ``type``, chosen by a key of the section.
         variant_key: the key that chooses this model among its type's variants (``cylinder``
             makes a ``hydraulic`` actuator the pinned two-chamber cylinder).
@@ -228,6 +230,7 @@ class ActuatorPlugin(abc.ABC):
     spring_name: ClassVar[str] = "actuator spring"
     outputs: ClassVar[dict[str, str]] = {}
     energy: ClassVar[str | None] = None
+    lines: ClassVar[tuple[str, ...]] = ()
 
     def __init__(self, params: Any, joint: Joint) -> None:
         self.params = params

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -79,8 +80,15 @@ def _add_simulate(sub: argparse._SubParsersAction) -> None:
                    help="a measured supply pressure, Pa, that every pinned cylinder's valve is "
                         "fed at instead of its pump's: a signal as for --input (e.g. 8e6+sine:"
                         "5e5,2), or a measurement CSV with columns t and supply")
+    p.add_argument("--burst", action="append", default=[], metavar="JOINT:LINE@TIME",
+                   help="a hose burst: the pinned cylinder's line a (cap side) or b (rod side) "
+                        "opens to the atmosphere at TIME s, e.g. boom:a@1.5 (repeatable); the "
+                        "run fails its health check if the load then moves more than 1 mm")
     p.add_argument("-o", "--output", type=output_file, default=Path("out/run.npz"), metavar="FILE",
                    help="the run file to write (default: out/run.npz)")
+    p.epilog = ("Exit status: 0 the run is written and healthy, or has warnings (printed on "
+                "stderr); 2 bad input; 3 the run is written but failed its health check (one "
+                "line on stderr names the joint and the cause).")
     p.set_defaults(func=_cmd_simulate)
 
 
@@ -213,7 +221,8 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
                       overrides=overrides or None, initial=_initial(args),
                       label=args.output.stem, sample_dt=args.sample_dt,
                       stream=args.output if args.stream else None,
-                      supply=_supply(args.supply) if args.supply else None)
+                      supply=_supply(args.supply) if args.supply else None,
+                      bursts=args.burst)
     wall = time.perf_counter() - start
     if not args.stream:
         run.save(args.output)
@@ -223,7 +232,10 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
           f"({run.t[-1] / wall:.0f}x real time); final q = "
           f"{np.array2string(run.q[-1], precision=4)}; peak pressure = {peak / 1e6:.3g} MPa"
           + _energy_note(run))
-    return 0
+    health = run.health
+    for line in health.lines():
+        print(f"maniplab simulate: {line}", file=sys.stderr)
+    return EXIT_MISSED if health.verdict == "failed" else 0
 
 
 def _energy_note(run: Run) -> str:

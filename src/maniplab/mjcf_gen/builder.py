@@ -195,7 +195,9 @@ def _configure(s: mujoco.MjSpec, spec: ManipulatorSpec) -> None:
     s.option.gravity = list(spec.gravity)
     s.option.timestep = TIMESTEP
     s.option.integrator = INTEGRATOR
-    s.nuserdata = 2  # a measured supply pressure at a step's start and end (cylinder.c)
+    # a measured supply pressure at a step's start and end, then the times each actuator's two
+    # lines burst (a run's scenario; cylinder.c)
+    s.nuserdata = 2 + 2 * len(spec.joints)
 
 
 def _add_link(parent: mujoco.MjsBody, joint: Joint, at: np.ndarray) -> mujoco.MjsBody:

@@ -7,8 +7,8 @@ leakage, the relief and anti-cavitation valves; the energy the return oil carrie
 line; the work on the piston; the energy stored by compressing the oil. Every term is taken at
 the same instants of the chambers' integration, so that
 
-    pump = meter_in + compensator + meter_out + cushion + leakage + relief + anticavitation + tank
-           + work + compression
+    pump = meter_in + compensator + meter_out + cushion + holding + burst + leakage + relief
+           + anticavitation + tank + work + compression
 
 holds to round-off, as the chambers' continuity multiplied by their pressures does at each instant.
 The recorder reads the accumulators from the recorded plugin states and gives them as the run's
@@ -34,11 +34,11 @@ if TYPE_CHECKING:
     from maniplab.sim.run import Run
 
 TERMS = ("pump", "meter_in", "compensator", "meter_out", "leakage", "relief", "anticavitation",
-         "tank", "work", "compression", "cushion")
+         "tank", "work", "compression", "cushion", "holding", "burst")
 """The energy terms, in the order of the C accumulators (``chambers.h``, ``ML_E_*``)."""
 
-LOSSES = ("meter_in", "compensator", "meter_out", "cushion", "leakage", "relief",
-          "anticavitation")
+LOSSES = ("meter_in", "compensator", "meter_out", "cushion", "holding", "burst", "leakage",
+          "relief", "anticavitation")
 """The terms that are losses (heat in the oil)."""
 
 SIGNALS = tuple(f"E_{term}" for term in TERMS)
@@ -60,6 +60,8 @@ DESCRIPTIONS = {
     "work": "work done on the piston (negative where the load drives it)",
     "compression": "stored by compressing the oil in the chambers and hoses",
     "cushion": "lost in the end cushions' throttles",
+    "holding": "lost across the load-holding (counterbalance, pilot-operated check) valves",
+    "burst": "spilled from a burst line",
 }
 
 _C = Functions({"ml_cylinder_energy_slot": (ctypes.c_int, [ctypes.POINTER(ctypes.c_int)])})

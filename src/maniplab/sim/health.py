@@ -20,6 +20,11 @@ file. The checks:
   end stops may take (``joints[].stop_energy``, default IMPACT_ENERGY): ½ M_jj(q) v², M the arm's
   mass matrix at the pose (MuJoCo's, payload included) and v the last recorded speed before the
   stop; the finding names the joint, the speed and the energy;
+- **burst**: in a run with hose bursts (:mod:`~maniplab.sim.bursts`), a load that moved more
+  than 1 mm after its line burst: a failure naming the joint, the line and the distance;
+- **lowering**: a sustained oscillation of a holding chamber's pressure while a load is lowered
+  through its counterbalance valve (:mod:`~maniplab.sim.lowering`): the frequency, the swing and
+  the pilot ratio to change;
 - **diverging**: in a closed-loop run (one with the controller's reference ``x_d`` and task
   error ``e_x``), once the reference has come to rest: the error over the second half of that
   rest more than DIVERGING times the first half's, and above 1 mm: the loop is unstable.
@@ -30,12 +35,13 @@ A finding is a warning or a failure; the verdict is "ok", "warnings" or "failed"
 from __future__ import annotations
 
 import dataclasses
-import enum
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from maniplab.friction import FrictionMode
+from maniplab.sim import bursts, lowering
+from maniplab.sim.findings import Finding, Severity
 from maniplab.spec import Joint, model_of
 from maniplab.spec.actuator import UnresolvedActuator
 
@@ -61,35 +67,6 @@ REST = 0.2
 IMPACT_ENERGY = 100.0
 """J: the kinetic energy at a limit beyond which an impact is reported, unless the joint's
 ``stop_energy`` says otherwise."""
-
-
-class Severity(enum.Enum):
-    """How bad a finding is."""
-
-    WARNING = "warning"
-    FAILURE = "failure"
-
-
-@dataclasses.dataclass(frozen=True)
-class Finding:
-    """One thing that went wrong in a run.
-
-    Attributes:
-        severity: warning or failure.  check: which check found it ("saturation", ...).
-        joint: the joint's name (None when not one joint's).  cause: what happened.
-        advice: the setting to change.
-    """
-
-    severity: Severity
-    check: str
-    joint: str | None
-    cause: str
-    advice: str
-
-    def line(self) -> str:
-        """``joint q2: <cause>; <advice>``: one line for a terminal."""
-        where = f"joint {self.joint}: " if self.joint else ""
-        return f"{where}{self.cause}; {self.advice}"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -128,7 +105,8 @@ def assess(run: Run) -> Health:
     hold = np.append(np.diff(t), 0.0)  # each sample's command holds until the next
     span = float(t[-1] - t[0])
     findings = [*_saturation(run, hold, span), *_bounds(run), *_pinned(run, hold, span),
-                *_still(run, hold), *_impacts(run), *_diverging(run), *_tracking(run)]
+                *_still(run, hold), *_impacts(run), *_diverging(run), *_tracking(run),
+                *bursts.drop_findings(run), *lowering.findings(run)]
     findings.sort(key=lambda f: f.severity is not Severity.FAILURE)
     return Health(tuple(findings))
 

@@ -27,7 +27,8 @@ UNITS: dict[str, str] = {
     "tau_act": "N·m | N", "tau_fric": "N·m | N", "dP": "Pa", "Q": "m³/s", "iv": "A",
     "mode": "FrictionMode", "ee_pos": "m", "ctrl": "A | N·m | N",
     "tau_limit": "N·m | N", "z": "rad | m", "pA": "Pa", "pB": "Pa", "spool": "",
-    "stroke": "m", "cylinder_force": "N", **{name: "J" for name in ENERGY_SIGNALS}, SUPPLY_INTEGRAL: "Pa·s",
+    "stroke": "m", "cylinder_force": "N", "hold_a": "", "hold_b": "",
+    **{name: "J" for name in ENERGY_SIGNALS}, SUPPLY_INTEGRAL: "Pa·s",
 }
 
 

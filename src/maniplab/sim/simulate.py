@@ -23,6 +23,7 @@ from maniplab.mjcf_gen.builder import arm_accuracy
 from maniplab.mjcf_gen.names import END_EFFECTOR
 from maniplab.progress import Progress
 from maniplab.sim import budget, native, recorder, store
+from maniplab.sim import bursts as burst_lines
 from maniplab.sim.claim import claimed
 from maniplab.sim.errors import InputError
 from maniplab.sim.plant import Plant, SpecLike, integrator_name
@@ -46,7 +47,7 @@ def simulate(spec_or_plant: SpecLike | Plant, *, inputs: Mapping[str | int, Any]
              overrides: Mapping[str, Any] | None = None, initial: Mapping[str, Any] | None = None,
              sample_dt: float | None = None, integrator: str | None = None, label: str | None = None,
              progress: bool | None = None, stream: str | os.PathLike[str] | None = None,
-             supply: Any = None) -> Run:
+             supply: Any = None, bursts: Any = None) -> Run:
     """Simulate an arm and record its signals.
 
     Args:
@@ -86,6 +87,10 @@ def simulate(spec_or_plant: SpecLike | Plant, *, inputs: Mapping[str | int, Any]
             e.g. ``ml.signals.held(t, p)`` of a rig's log): every pinned cylinder's valve is fed
             at it instead of at its pump's (the pump's model, flow limit and load sensing are
             left out), to validate the arm against rig data. Lumped cylinders keep their own.
+        bursts: hose bursts, a scenario (:mod:`~maniplab.sim.bursts`): ``"JOINT:LINE@TIME"``
+            or a list of them, e.g. ``"lift:a@1.5"``: the cap-side line of the lift's pinned
+            cylinder opens to the atmosphere at 1.5 s; the health verdict reports a load that
+            moved more than 1 mm after it.
 
     Returns:
         The Run: ``t`` (N,), signals ``q``, ``qd``, ``tau_act``, ``tau_fric``, ``tau_limit``,
@@ -104,6 +109,7 @@ def simulate(spec_or_plant: SpecLike | Plant, *, inputs: Mapping[str | int, Any]
         SpecError: the spec or an override is invalid.
     """
     plant = _plant(spec_or_plant, dt=dt, overrides=overrides, integrator=integrator)
+    scenario = burst_lines.checked(plant.spec, burst_lines.from_any(bursts))
     steps = budget.steps_of(duration, plant.dt)
     drive = _inputs(plant, inputs or {})
     if supply is not None:
@@ -118,10 +124,13 @@ def simulate(spec_or_plant: SpecLike | Plant, *, inputs: Mapping[str | int, Any]
         _set_initial(plant, initial)
     with claimed(controller, plant.state()) as own, _recording(target, signals, rows) as sink:
         loop = _Loop(plant, steps, every, drive, own, period, sink)
+        burst_lines.write(plant, scenario)
         _go(loop, plant, steps, progress)
         meta = _meta(plant, inputs or {}, own, period, overrides, initial, steps, every, label)
         if supply is not None:
             meta["supply"] = repr(as_signal(supply))
+        if scenario:
+            meta["bursts"] = burst_lines.describe(scenario)
         if isinstance(sink, RunWriter):
             sink.finish(store.header_body(plant.spec, meta,
                                           {k: UNITS[k] for k in signals if k in UNITS}))

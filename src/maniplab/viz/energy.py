@@ -29,8 +29,9 @@ def energy_figure(reports: Sequence[EnergyReport]) -> Figure:
     ax = fig.add_subplot()
     x = np.arange(len(reports))
     up, down = np.zeros(len(reports)), np.zeros(len(reports))
-    colors = dict(zip(PARTS, ("#d62728", "#ff7f0e", "#e377c2", "#1f77b4", "#8c564b", "#9467bd",
-                              "#bcbd22", "#7f7f7f", "#c7c7c7", "#2ca02c", "#17becf")))
+    colors = dict(zip(PARTS, ("#d62728", "#ff7f0e", "#e377c2", "#1f77b4", "#aec7e8", "#393b79",
+                              "#8c564b", "#9467bd", "#bcbd22", "#7f7f7f", "#c7c7c7", "#2ca02c",
+                              "#17becf"), strict=True))
     for part in PARTS:
         values = np.array([_part(r, part) for r in reports])
         if not np.any(np.abs(values) > 0.0):

@@ -20,6 +20,8 @@ DISPLAY: dict[str, tuple[str, float, str, str]] = {
     "stroke": ("piston travel", 1e3, "mm", "mm"),
     "cylinder_force": ("cylinder force", 1e-3, "kN", "kN"),
     "spool": ("spool opening", 1.0, "", ""),
+    "hold_a": ("cap-side holding valve opening", 1.0, "", ""),
+    "hold_b": ("rod-side holding valve opening", 1.0, "", ""),
     "Q": ("oil flow", 6e4, "L/min", "L/min"),
     "iv": ("valve current", 1.0, "A", "A"),
     "ctrl": ("command", 1.0, "", ""),

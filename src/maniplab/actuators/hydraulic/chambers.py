@@ -8,12 +8,13 @@ the same code for the actuator model's derivatives, steady state and checks.
 from __future__ import annotations
 
 import ctypes
+import math
 from ctypes import c_double, c_void_p
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from maniplab.actuators.hydraulic.params import PinnedHydraulicActuator
+from maniplab.actuators.hydraulic.params import HoldingValve, PinnedHydraulicActuator
 from maniplab.clib import Functions
 
 if TYPE_CHECKING:
@@ -36,7 +37,10 @@ class ChambersLaw(ctypes.Structure):
         "leakage", "gain_a", "gain_b", "laminar", "supply", "tank", "relief", "inv_tau",
         "inv_current", "out_a", "out_b", "margin", "ls_margin", "ls_others", "deadband",
         "points")), ("point_u", c_double * POINTS), ("point_x", c_double * POINTS),
-        ("post", c_double), ("cushion_length", c_double), ("cushion_gain", c_double)]
+        ("post", c_double), ("cushion_length", c_double), ("cushion_gain", c_double),
+        *((name, c_double * 2) for name in (
+            "hold_type", "hold_setting", "hold_ratio", "hold_gain", "hold_band", "hold_leakage",
+            "burst", "burst_gain"))]
 
 
 _D = c_double
@@ -48,6 +52,7 @@ _C = Functions({
     "ml_chambers_flows": (None, [_LAW, _D, _D, _D, _D, _P]),
     "ml_chambers_forces": (None, [_LAW, ctypes.c_int, _P, _P, _P]),
     "ml_chambers_flows_many": (None, [_LAW, ctypes.c_int, _P, _P]),
+    "ml_chambers_hold_openings": (None, [_LAW, ctypes.c_int, _P, _P, _P]),
     "ml_chambers_spool_target": (_D, [_LAW, _D]),
     "ml_chambers_spool_command": (_D, [_LAW, _D]),
 })
@@ -71,9 +76,45 @@ def chambers_law(p: PinnedHydraulicActuator, pump: Supply | None = None) -> Cham
     law.points = len(v.characteristic or ())
     if c.cushions is not None:
         law.cushion_length, law.cushion_gain = c.cushions.length, c.cushions.gain
+    for k, valve in enumerate(holding_valves(p)):
+        if valve is not None:
+            law.hold_type[k] = HOLD_TYPES[valve.type]
+            law.hold_setting[k], law.hold_ratio[k] = valve.crack, valve.pilot_ratio
+            law.hold_gain[k], law.hold_band[k] = valve.gain, valve.band
+            law.hold_leakage[k] = valve.leakage
+    law.burst_gain[:] = burst_gains(p)
     if pump is not None and pump.ls_margin is not None:
         law.ls_margin, law.ls_others = pump.ls_margin, p.tank_pressure
     return law
+
+
+HOLD_TYPES = {"counterbalance": 1, "pilot_check": 2}
+"""The C law's codes of the holding valves' types (chambers.h's ML_HOLD_*)."""
+
+BURST_DIAMETER = 0.0127
+"""The bore of a line that bursts where the spec gives no hose, m (half an inch)."""
+
+BURST_DISCHARGE = 0.7
+"""The discharge coefficient of a burst line's open end."""
+
+OIL_DENSITY = 870.0
+"""kg/m³, for a burst line's open end."""
+
+
+def holding_valves(p: PinnedHydraulicActuator) -> tuple[HoldingValve | None, HoldingValve | None]:
+    """The load-holding valves on chambers A and B (None where there is none)."""
+    h = p.holding
+    return (None, None) if h is None else (h.a, h.b)
+
+
+def burst_gains(p: PinnedHydraulicActuator) -> tuple[float, float]:
+    """K of each line's open end if it bursts, m³/(s·√Pa): C_d π d²/4 √(2/ρ), d its hose's
+    inner diameter (:data:`BURST_DIAMETER` without one)."""
+    hoses = p.cylinder.hoses
+    bores = [getattr(getattr(hoses, side, None), "inner_diameter", None) or BURST_DIAMETER
+             for side in "ab"]
+    return tuple(BURST_DISCHARGE * math.pi / 4.0 * d**2 * math.sqrt(2.0 / OIL_DENSITY)
+                 for d in bores)  # type: ignore[return-value]
 
 
 def plugin_config(p: PinnedHydraulicActuator) -> dict[str, float | str]:
@@ -94,6 +135,12 @@ def plugin_config(p: PinnedHydraulicActuator) -> dict[str, float | str]:
         config["flow_sharing"] = 1.0
     if p.cylinder.cushions is not None:
         config["cushion"] = f"{p.cylinder.cushions.length!r} {p.cylinder.cushions.gain!r}"
+    for side, valve in zip("ab", holding_valves(p), strict=True):
+        if valve is not None:
+            config[f"holding_{side}"] = " ".join(repr(float(v)) for v in (
+                HOLD_TYPES[valve.type], valve.crack, valve.pilot_ratio, valve.gain, valve.band,
+                valve.leakage))
+    config["burst_gain"] = " ".join(repr(float(g)) for g in burst_gains(p))
     if p.valve.characteristic is not None:
         config["characteristic"] = " ".join(repr(float(v)) for point in p.valve.characteristic
                                             for v in point)
@@ -120,6 +167,16 @@ def forces(law: ChambersLaw, pa: np.ndarray, pb: np.ndarray) -> np.ndarray:
     out = np.empty(a.size)
     _C().ml_chambers_forces(ctypes.byref(law), a.size, a.ctypes.data, b.ctypes.data,
                             out.ctypes.data)
+    return out
+
+
+def hold_openings(law: ChambersLaw, pa: np.ndarray, pb: np.ndarray) -> np.ndarray:
+    """The load-holding valves' openings at N samples: pA, pB (N,) -> (N, 2), 0..1, NaN where a
+    chamber has none (the pilot at the other chamber's pressure)."""
+    a, b = (np.ascontiguousarray(v, dtype=float) for v in (pa, pb))
+    out = np.empty((a.size, 2))
+    _C().ml_chambers_hold_openings(ctypes.byref(law), a.size, a.ctypes.data, b.ctypes.data,
+                                   out.ctypes.data)
     return out
 
 

@@ -321,6 +321,76 @@ class Valve:
 
 
 @validated
+class HoldingValve:
+    """A load-holding valve on a cylinder's chamber, mounted on the cylinder between the chamber
+    and its hose: a counterbalance (overcentre) valve, or a pilot-operated check valve. Either
+    holds the chamber's oil while its pilot, the other line's pressure, stays low, lets the
+    valve's oil into the chamber freely through its check, and lets it out only when opened:
+
+    - a counterbalance valve opens where the chamber's pressure plus the pilot ratio times the
+      pilot pressure exceeds its setting (gauge pressures), fully over ``band``: it meters a
+      lowering load, and it relieves the chamber at its setting;
+    - a pilot-operated check opens where the pilot pressure exceeds the chamber's pressure over
+      the pilot ratio plus ``setting`` (its spring), fully over ``band``: it holds or lets go.
+
+    Attributes:
+        type: "counterbalance" or "pilot_check".
+        setting: a counterbalance valve's crack (setting) pressure, Pa (about 1.3 times the
+            highest load-induced pressure); a pilot-operated check's spring as a pilot pressure,
+            Pa (default 0).
+        pilot_ratio: the pilot piston's area over the seat's (3 to 10 for a counterbalance valve,
+            3 to 5 for a pilot-operated check).
+        nominal_flow: the flow fully open at ``nominal_pressure_drop``, m³/s.
+        nominal_pressure_drop: Pa.
+        band: the pressure from cracking to fully open, Pa.
+        leakage: the seat's leakage while closed, m³/(s·Pa) (0: drop-tight, as poppet valves are
+            rated).
+    """
+
+    EXAMPLE: ClassVar[str] = ("type: counterbalance, setting: 25.0e6, pilot_ratio: 4.0, "
+                              "nominal_flow: 1.5e-3")
+
+    type: Literal["counterbalance", "pilot_check"]
+    pilot_ratio: Positive
+    nominal_flow: Positive
+    setting: NonNegative | None = None
+    nominal_pressure_drop: Positive = 1.0e6
+    band: Positive = 2.0e6
+    leakage: NonNegative = 0.0
+
+    def __post_init__(self) -> None:
+        if self.type == "counterbalance" and not (self.setting or 0.0) > 0.0:
+            raise ValueError("a counterbalance valve needs its setting, Pa (the crack pressure, "
+                             "about 1.3 times the highest load-induced pressure)")
+
+    @property
+    def gain(self) -> float:
+        """K fully open, m³/(s·√Pa)."""
+        return self.nominal_flow / self.nominal_pressure_drop ** 0.5
+
+    @property
+    def crack(self) -> float:
+        """The setting, Pa (0 when not given)."""
+        return self.setting or 0.0
+
+
+@validated
+class Holding:
+    """The load-holding valves of a cylinder's two chambers.
+
+    Attributes:
+        a: on the cap side (:class:`HoldingValve`), or None.
+        b: on the rod side, or None.
+    """
+
+    EXAMPLE: ClassVar[str] = ("a: {type: counterbalance, setting: 25.0e6, pilot_ratio: 4.0, "
+                              "nominal_flow: 1.5e-3}")
+
+    a: HoldingValve | None = None
+    b: HoldingValve | None = None
+
+
+@validated
 class PinnedHydraulicActuator:
     """A two-chamber cylinder pinned across its joint, fed by a four-edge valve.
 
@@ -333,6 +403,7 @@ class PinnedHydraulicActuator:
         relief_pressure: the setting of a relief valve on each chamber, Pa, or None for none.
         bulk_modulus: E of the oil (and hoses), Pa.
         leakage: across the piston, m³/(s·Pa).
+        holding: load-holding valves on the chambers (:class:`Holding`), or None.
     """
 
     EXAMPLE: ClassVar[str] = ("type: hydraulic, cylinder: {...}, valve: {...}, "
@@ -346,6 +417,7 @@ class PinnedHydraulicActuator:
     relief_pressure: Positive | None = None
     bulk_modulus: Positive = 1.4e9
     leakage: NonNegative = 0.0
+    holding: Holding | None = None
 
     def __post_init__(self) -> None:
         if not self.supply_pressure > self.tank_pressure:

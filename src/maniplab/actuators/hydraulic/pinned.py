@@ -69,8 +69,10 @@ class PinnedCylinder(ActuatorPlugin):
     state_units: ClassVar[tuple[str, ...]] = ("Pa", "Pa", "")
     command: ClassVar[str] = "iv"
     spring_name: ClassVar[str] = "oil spring"
-    outputs: ClassVar[dict[str, str]] = {"stroke": "m", "cylinder_force": "N"}
+    outputs: ClassVar[dict[str, str]] = {"stroke": "m", "cylinder_force": "N", "hold_a": "",
+                                         "hold_b": ""}
     energy: ClassVar[str | None] = "plugin"
+    lines: ClassVar[tuple[str, ...]] = ("a", "b")
     params: PinnedHydraulicActuator
 
     @classmethod
@@ -139,10 +141,14 @@ class PinnedCylinder(ActuatorPlugin):
 
     def output_values(self, x: np.ndarray, q: np.ndarray) -> dict[str, np.ndarray]:
         """``stroke``: the piston's travel s(q) - min_length, m; ``cylinder_force``: pA A_A -
-        pB A_B along the pins, N (positive pushing them apart)."""
+        pB A_B along the pins, N (positive pushing them apart); ``hold_a``, ``hold_b``: the
+        load-holding valves' openings, 0..1 (NaN without one; the pilot at the other chamber's
+        pressure)."""
         travel = self.geometry.length(q) - self.params.cylinder.min_length
         force = chambers.forces(self.law, x[:, 0], x[:, 1])
-        return {"stroke": np.asarray(travel, dtype=float), "cylinder_force": force}
+        hold = chambers.hold_openings(self.law, x[:, 0], x[:, 1])
+        return {"stroke": np.asarray(travel, dtype=float), "cylinder_force": force,
+                "hold_a": hold[:, 0], "hold_b": hold[:, 1]}
 
     def forces(self, x: np.ndarray, u: np.ndarray, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         """:meth:`force` at N samples, (N,)."""
@@ -154,11 +160,15 @@ class PinnedCylinder(ActuatorPlugin):
         return self.rated_holding_range(q, self.params.holding_pressure)
 
     def rated_holding_range(self, q: float, pressure: float) -> tuple[float, float]:
-        """The holding range with one chamber up to the rating ``pressure`` (Pa), the other at
-        tank, times r(q)."""
+        """The holding range with one chamber up to the rating ``pressure`` (Pa), or to its
+        counterbalance valve's setting where that is lower (the valve opens there with its
+        pilot at tank), the other at tank, times r(q)."""
         c = self.params.cylinder
-        top, low = pressure, self.params.tank_pressure
-        push, pull = top * c.cap_area - low * c.rod_area, low * c.cap_area - top * c.rod_area
+        low = self.params.tank_pressure
+        top_a, top_b = (min(pressure, low + valve.crack)
+                        if valve is not None and valve.type == "counterbalance" else pressure
+                        for valve in chambers.holding_valves(self.params))
+        push, pull = top_a * c.cap_area - low * c.rod_area, low * c.cap_area - top_b * c.rod_area
         r = float(self.geometry.arm(q))
         return (pull * r, push * r) if r > 0.0 else (push * r, pull * r)
 
@@ -189,9 +199,16 @@ class PinnedCylinder(ActuatorPlugin):
 
     # --- what bounds it -------------------------------------------------------------------------
     def bounds(self) -> list[Bound]:
-        """Each chamber within the supply pressure; never beyond the relief's setting."""
+        """Each chamber within the supply pressure, or its counterbalance valve's setting where
+        that is higher (the valve brakes a load up to it); never beyond the relief's setting."""
         p = self.params
-        out = [Bound(name, p.supply_pressure, "supply pressure") for name in ("pA", "pB")]
+        out = []
+        for name, valve in zip(("pA", "pB"), chambers.holding_valves(p), strict=True):
+            braked = valve is not None and valve.type == "counterbalance" and (
+                p.tank_pressure + valve.crack > p.supply_pressure)
+            out.append(Bound(name, p.tank_pressure + valve.crack, "counterbalance setting")
+                       if braked and valve is not None else
+                       Bound(name, p.supply_pressure, "supply pressure"))
         if p.relief_pressure is not None:
             out += [Bound(name, p.relief_pressure * (1.0 + 1e-9), "relief pressure", hard=True)
                     for name in ("pA", "pB")]
@@ -283,6 +300,25 @@ class PinnedCylinder(ActuatorPlugin):
                 f"both ends, the throttle {cushions.nominal_flow * 6e4:.4g} L/min at "
                 f"{cushions.nominal_pressure_drop / 1e5:.4g} bar at the very end")
         return [line]
+
+    def _holding_lines(self) -> list[str]:
+        """The load-holding valves (none without), for :meth:`details`."""
+        lines = []
+        for side, valve in zip("AB", chambers.holding_valves(self.params), strict=True):
+            if valve is None:
+                continue
+            pilot = "AB".replace(side, "")
+            if valve.type == "counterbalance":
+                what = (f"counterbalance valve on {side}: setting {valve.crack / 1e5:.4g} bar, "
+                        f"pilot ratio {valve.pilot_ratio:.3g}:1 from {pilot}")
+            else:
+                what = (f"pilot-operated check on {side}: pilot ratio {valve.pilot_ratio:.3g}:1 "
+                        f"from {pilot}, spring {valve.crack / 1e5:.4g} bar")
+            lines.append(f"{' ' * len(self.joint.name)}  {what}; "
+                         f"{valve.nominal_flow * 6e4:.4g} L/min at "
+                         f"{valve.nominal_pressure_drop / 1e5:.4g} bar fully open, over "
+                         f"{valve.band / 1e5:.4g} bar")
+        return lines
 
     def rates(self, native: bool = False) -> dict[str, float]:
         """The spool's lag 1/τ and the pressure decay of the leakage across the piston,
@@ -380,7 +416,7 @@ class PinnedCylinder(ActuatorPlugin):
                       f"{law.gain_b * math.sqrt(margin) * 6e4:.4g} L/min into B")
         if v.flow_sharing:
             sizes += "; flow sharing (post-compensated): its edges see the pump less the highest load"
-        return [where, sizes, *self._hose_lines(), *self._cushion_lines(),
+        return [where, sizes, *self._hose_lines(), *self._cushion_lines(), *self._holding_lines(),
                 *self._rod_friction_lines(np.abs(r))]
 
     def _rod_friction_lines(self, arms: np.ndarray) -> list[str]:
