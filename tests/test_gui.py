@@ -290,11 +290,9 @@ def test_the_page_configures_simulates_compares_and_replays(tmp_path: Path) -> N
             web.tick(driver, "run-2")
             web.click(driver, "Plot selected runs")
             web.text_shown(driver, "2 run(s): q, dP")
-            image = web.wait(lambda: web.visible(driver, "//img[@alt='comparison' or "
-                                                 "contains(@src,'blob:') or contains(@src,'data:')]"),
-                             "the plot")
-            assert image.size["width"] > 200
-            driver.execute_script("arguments[0].scrollIntoView({block: 'end'});", image)
+            plot = web.wait(lambda: driver.execute_script(_PLOT), "the plot")
+            web.wait(lambda: "payload=2000" in plot.text, "the legend naming the payloads")
+            assert plot.size["width"] > 600
             web.shot(driver, "4-compare")
 
             # a second tab sees the same runs
@@ -551,5 +549,85 @@ def test_every_number_on_the_page_carries_its_unit(tmp_path: Path) -> None:
             shown_errors = " ".join(str(f.error.content) for f in app.configure.joint_fields)
             assert "erector.yaml" in shown_errors and "maniplab/assets" not in shown_errors
             web.shot(driver, "units-3-bar")
+    finally:
+        app.close()
+
+
+_PLOT = "return document.querySelector('.js-plotly-plot')"
+
+
+def _close_toasts(driver: Any) -> None:
+    """Close the page's notices (headless chromium's 'software WebGL' one) before a screenshot."""
+    for button in driver.find_elements(
+            "xpath", "//div[contains(@class,'mantine-Notification-root')]//button"):
+        driver.execute_script("arguments[0].click();", button)
+    web.wait(lambda: not web.visible(driver, "//div[contains(@class,'mantine-Notification-root')]"),
+             "the notices closed")
+
+
+def test_the_plot_pane_is_large_interactive_and_exports(tmp_path: Path) -> None:
+    """Issue 37, the plot pane: every joint of the chosen signals in its own subplot with its
+    unit, legends naming the runs and the parameter that differs (never meta.steps), a drag
+    zooms (the axis range changes), and the same panels export to CSV (every sample) and SVG."""
+    spec = ml.builtin_spec("erector")
+    app = Gui(spec, tmp_path / "ws", port=_port())
+    try:
+        made = {}
+        for name, mass in (("light", 500.0), ("heavy", 3000.0)):
+            made[name] = ml.simulate(spec, inputs={"q2": ml.signals.step(0.3, t0=0.05)},
+                                     duration=0.3, initial={"dP": "gravity"},
+                                     overrides={"end_effector.mass": mass})
+            app.workspace.save_run(made[name], name)
+        app.runs_changed()
+        with web.chromium(1600, 1000) as driver:
+            driver.get(app.url)
+            web.tab(driver, "Runs")
+            web.tick(driver, "light")
+            web.tick(driver, "heavy")
+            web.click(driver, "Plot selected runs")
+            plot = web.wait(lambda: driver.execute_script(
+                _PLOT + " && document.querySelector('.js-plotly-plot')._fullLayout ? "
+                "document.querySelector('.js-plotly-plot') : null"), "the plot")
+            web.wait(lambda: "heavy (payload=3000)" in plot.text, "the legend")
+            text = plot.text
+            assert "light (payload=500)" in text and "meta." not in text
+            titles = [f"{j.name}: position" for j in spec.joints]
+            titles += [f"{j.name}: load pressure ΔP" for j in spec.joints]
+            assert all(t in text for t in titles), text  # all six joints, both signals
+            assert "[deg]" in text and "[MPa]" in text and "[m]" in text  # q4 is prismatic
+            assert plot.size["width"] > 700 and 400 < plot.size["height"] < 800
+            _close_toasts(driver)
+            web.shot(driver, "plot-1-pane")
+
+            # a drag across the first subplot zooms its time axis
+            before = driver.execute_script(_PLOT + "._fullLayout.xaxis.range.slice()")
+            drag = plot.find_element("css selector", ".nsewdrag")
+            from selenium.webdriver.common.action_chains import ActionChains
+
+            w = drag.size["width"]
+            ActionChains(driver).move_to_element_with_offset(drag, -w // 4, 0).click_and_hold() \
+                .move_by_offset(w // 3, 5).move_by_offset(5, 0).release().perform()
+            web.wait(lambda: driver.execute_script(_PLOT + "._fullLayout.xaxis.range.slice()")
+                     != before, "the zoom")
+            after = driver.execute_script(_PLOT + "._fullLayout.xaxis.range.slice()")
+            assert before[0] <= after[0] < after[1] <= before[1]
+            assert after[1] - after[0] < 0.6 * (before[1] - before[0])
+            web.shot(driver, "plot-2-zoomed")
+
+            # exports: every sample as CSV, the same panels as SVG
+            web.click(driver, "CSV")
+            web.text_shown(driver, "CSV written to exports/")
+            csv_file = next((tmp_path / "ws" / "exports").glob("*.csv"))
+            lines = csv_file.read_text().splitlines()
+            assert lines[0].startswith("run,t [s],q1: position [deg]")
+            assert len(lines) == 1 + len(made["light"].t) + len(made["heavy"].t)
+            row = lines[1 + len(made["light"].t) + 10].split(",")  # heavy, its 11th sample
+            assert row[0] == "heavy"
+            np.testing.assert_allclose(float(row[3]), np.degrees(made["heavy"].q[10, 1]),
+                                       rtol=1e-8, atol=1e-12)
+            web.click(driver, "SVG")
+            web.text_shown(driver, "SVG written to exports/")
+            svg = next((tmp_path / "ws" / "exports").glob("*.svg")).read_text()
+            assert "<svg" in svg and "heavy (payload=3000)" in svg
     finally:
         app.close()

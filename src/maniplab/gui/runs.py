@@ -7,17 +7,12 @@ signal, with units, and a legend naming the parameters in which the runs differ.
 from __future__ import annotations
 
 import html
-import io
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
 from maniplab.errors import ManiplabError
 from maniplab.gui.text import Note, plain, warning
-from maniplab.sim import params
 from maniplab.sim.run import Run
-from maniplab.viz.compare import parameters
 
 if TYPE_CHECKING:
     from maniplab.gui.app import Gui
@@ -30,8 +25,10 @@ SIGNALS = {
 
 
 def legend(runs: list[Run], names: list[str]) -> list[str]:
-    """Legend entries: the parameters in which the runs differ, else their names."""
-    return params.labels([parameters(run) for run in runs], names)
+    """Legend entries: each run's name and the parameters in which the runs differ."""
+    from maniplab.gui.plot import legend as named
+
+    return named(runs, names)
 
 
 def run_summary(workspace: Any, name: str) -> str:
@@ -92,8 +89,9 @@ class RunsTab:
                             for key, label in SIGNALS.items()}
         gui.add_button("Plot selected runs").on_click(lambda _: self.plot())
         self.message = gui.add_markdown("")
-        self.figure = gui.add_image(np.full((8, 8, 3), 255, np.uint8), label="comparison",
-                                    visible=False)
+        self.pane: Any = None  # the plot pane: a window over the 3D view, made on the first plot
+        self.plotly: Any = None
+        self.plotted: tuple[list[str], list[str]] = ([], [])  # runs, signals
         app.on_runs(self.refresh)
         self.refresh()
 
@@ -145,8 +143,9 @@ class RunsTab:
         self.message.content = ""
 
     def plot(self) -> None:
-        """Overlay the chosen signals of the runs ticked."""
-        from maniplab.viz.plots import compare
+        """Overlay the chosen signals of the runs ticked in the plot pane: every joint in its
+        own subplot with its unit, zoom, pan and a data cursor, exports to PNG, SVG and CSV."""
+        from maniplab.gui.plot import figure, panels
 
         names = self.selected()
         signals = [key for key, box in self.signals.items() if box.value]
@@ -154,19 +153,62 @@ class RunsTab:
             if not names or not signals:
                 raise ManiplabError("tick at least one run and one signal")
             runs = [self.app.workspace.load_run(n) for n in names]
-            figure = compare(runs, signals, labels=legend(runs, names))
+            fig = figure(runs, names, signals, self.app.configure.units)
         except (ManiplabError, OSError, ValueError) as exc:
             self.message.content = warning(exc)
             return
-        self.figure.image = _pixels(figure)
-        self.figure.visible = True
-        self.message.content = plain(f"{len(runs)} run(s): {', '.join(signals)}")
+        rows = max(p.row for p in panels(runs, signals))
+        height = 190 * rows + 110
+        aspect = height / (PANE_WIDTH - 30)  # viser's page draws it height = width * aspect
+        self._show_pane(fig, aspect)
+        self.plotted = (names, signals)
+        self.message.content = plain(f"{len(runs)} run(s): {', '.join(signals)}, in the plot "
+                                     "pane (drag to zoom, double-click to reset)")
+
+    def _show_pane(self, fig: Any, aspect: float) -> None:
+        gui = self.app.server.gui
+        if self.pane is None:
+            self.pane = gui.add_panel()
+            with self.pane.add_tab("Plot"):
+                self.plotly = gui.add_plotly(fig, aspect=aspect, config=PLOT_CONFIG)
+                exports = gui.add_button_group("Download", ("PNG", "SVG", "CSV"),
+                                               hint="the panels as an image, every sample as CSV")
+                exports.on_click(lambda event: self.export(str(event.target.value).lower(),
+                                                           event.client))
+                self.export_note = Note(gui)
+                gui.add_button("Close the plot").on_click(lambda _: self.close_pane())
+        else:
+            self.plotly.figure = fig
+            self.plotly.aspect = aspect
+            self.pane.visible = True
+        self.pane.float(x=12, y=12, width=PANE_WIDTH)
+
+    def close_pane(self) -> None:
+        """Take the plot pane away (the next plot brings it back)."""
+        if self.pane is not None:
+            self.pane.visible = False
+
+    def export(self, fmt: str, client: Any = None) -> None:
+        """Send the plotted runs and signals as PNG, SVG (the same panels) or CSV (every
+        sample) to ``client`` (the page that asked)."""
+        from maniplab.gui.plot import image, table
+
+        names, signals = self.plotted
+        try:
+            runs = [self.app.workspace.load_run(n) for n in names]
+            units = self.app.configure.units
+            content: str | bytes = (table(runs, names, signals, units) if fmt == "csv"
+                                    else image(runs, names, signals, fmt, units))
+            path = self.app.download(f"plot-{'-'.join(names)}"[:64], f".{fmt}", content, client)
+        except (ManiplabError, OSError, ValueError) as exc:
+            self.export_note(f"⚠ {exc}")
+            return
+        self.export_note(f"{fmt.upper()} written to exports/{path.name} and sent to the browser")
 
 
-def _pixels(figure: Any) -> np.ndarray:
-    """A matplotlib figure as an RGB image, shape (H, W, 3)."""
-    from PIL import Image
+PANE_WIDTH = 860
+"""Width of the plot pane, CSS px (the user may resize and move it)."""
 
-    buffer = io.BytesIO()
-    figure.savefig(buffer, format="png", dpi=90)
-    return np.asarray(Image.open(buffer).convert("RGB"))
+PLOT_CONFIG = {"displaylogo": False, "scrollZoom": True, "responsive": True,
+               "toImageButtonOptions": {"format": "png", "scale": 2}}
+"""The plot's toolbar: zoom, pan, autoscale and its own PNG snapshot; the wheel zooms."""
