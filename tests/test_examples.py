@@ -69,3 +69,16 @@ def test_cylinder_pins_draws_the_pins_and_refuses_a_joint_without_one(tmp_path: 
     result = subprocess.run([sys.executable, str(EXAMPLES / "cylinder_pins.py"), spec, "slew"],
                             capture_output=True, text=True, timeout=120, check=False)
     assert result.returncode == 2 and "no pinned cylinder" in result.stderr
+
+
+def test_lowering_oscillation_plots_each_ratio_and_refuses_a_joint_without_a_valve(
+        tmp_path: Path) -> None:
+    crane = str(Path(__file__).parent / "arms" / "knuckle_crane.yaml")
+    out = run("lowering_oscillation.py", crane, "boom", "--ratios", "1", "--command", "-0.15",
+              "--start=0,-0.6,1.2,0.5,0", "--duration", "1.0", "-o", str(tmp_path / "low.png"))
+    assert "1:1: lowers without oscillating" in out
+    assert iio.imread(tmp_path / "low.png").shape[1] >= 700
+    result = subprocess.run([sys.executable, str(EXAMPLES / "lowering_oscillation.py"), crane,
+                             "telescope", "--command", "-0.1"],
+                            capture_output=True, text=True, timeout=120, check=False)
+    assert result.returncode == 2 and "no counterbalance valve" in result.stderr

@@ -273,3 +273,23 @@ def test_a_bad_burst_is_one_line(burst: str, words: str) -> None:
     with pytest.raises(InputError, match=words) as err:
         ml.simulate(lift({"a": CBV}), duration=0.01, bursts=burst)
     assert "\n" not in str(err.value)
+
+
+def test_the_cascade_lowers_the_crane_through_its_counterbalance_valves() -> None:
+    """The cascade's drive inverts each section with its counterbalance valve in the line (the
+    same law), so it asks for the pilot pressure lowering needs: the corpus crane's boom and jib
+    lowered by a 4 s move end within 0.1 mm of the target, the run healthy, the boom's valve
+    held open by the rod side's pressure all the way down (the section meters)."""
+    from maniplab.control.move import run_move
+    from maniplab.model.analytic import AnalyticModel
+
+    spec = ml.resolve_spec(CRANE)
+    start, end = [0.0, -0.6, 1.2, 0.5, 0.0], [0.0, -0.2, 1.6, 0.5, 0.0]  # the boom down
+    target = AnalyticModel(spec).fk(end)[:3, 3]
+    result = run_move(spec, list(target), start=start, duration=4.0)
+    assert result.metrics.to_dict()["final_error_mm"] < 0.1
+    assert result.health.verdict == "ok"
+    run, k = result.run, spec.joint_index("boom")
+    lowering = run.qd[:, k] > 0.02
+    assert lowering.sum() > 1000
+    assert np.all(run["hold_a"][lowering, k] > 0.5)
