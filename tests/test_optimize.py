@@ -222,13 +222,13 @@ def mixed_study(folder: Path) -> Path:
 
 
 def test_a_dask_cluster_gives_the_same_study_as_local_processes(tmp_path: Path) -> None:
-    from dask.distributed import Client, LocalCluster
+    from dask.distributed import LocalCluster
 
     local = optimize(mixed_study(tmp_path), out=tmp_path / "local", processes=2, report=False)
     with LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
-                      dashboard_address=None) as cluster, Client(cluster) as client:
-        dask = optimize(mixed_study(tmp_path), out=tmp_path / "dask", executor=client,
-                        report=False)
+                      dashboard_address=None) as cluster:  # reached by its address (--scheduler)
+        dask = optimize(mixed_study(tmp_path), out=tmp_path / "dask",
+                        scheduler=cluster.scheduler_address, report=False)
     assert local.method == dask.method == "nsga2"
     strip = [[(r["values"], r["metrics"], r["feasible"]) for r in x.evaluations]
              for x in (local, dask)]
@@ -314,3 +314,41 @@ def test_the_command_writes_the_results_and_ml_optimize_is_the_function(
     assert again.computed == 0
     rows = json.loads((tmp_path / "cli" / "evaluations.json").read_text())
     assert rows[0]["phase"] == "baseline" and len(rows) == 1 + 27
+
+
+def test_a_duty_cycle_is_measured_as_its_runs_say(tmp_path: Path) -> None:
+    """The forestry crane's lift moved slowly enough not to be stretched: the cycle time is the
+    duration asked; the pump energy is the runs' energy balance (a plugin metric reads the runs
+    and sums :func:`maniplab.sim.energy.energy_report`'s pump term); the move ends where it was
+    asked, by the analytic model's forward kinematics of the run's last pose."""
+    crane = Path(__file__).resolve().parents[1] / "examples" / "optimize" / "forestry_crane.yaml"
+    spec = ml.load_spec(crane)
+    start = np.array([0.0, -0.3, 1.0, 0.0])
+    target = ml.AnalyticModel(spec).fk(np.array([0.0, -0.2, 1.0, 0.0]))[:3, 3]
+    (tmp_path / "energy.py").write_text(
+        "from maniplab.sim.energy import energy_report\n"
+        "def pump(spec, runs):\n"
+        "    return sum(energy_report(run).pump for run in runs) / 1e3\n"
+        "def last(spec, runs):\n"
+        "    import maniplab as ml\n"
+        "    return float(((ml.AnalyticModel(spec).fk(runs[-1].q[-1])[:3, 3]\n"
+        f"                   - {target.tolist()!r}) ** 2).sum() ** 0.5 * 1e3)\n")
+    study = write(tmp_path, "duty.yaml", {
+        "spec": str(crane), "budget": 1,
+        "variables": [{"path": "joints.tilt.actuator.valve.nominal_flow", "choices": [4.0e-4]}],
+        "duty_cycle": {"start": start.tolist(), "settle": 0.5,
+                       "moves": [{"target": target.tolist(), "duration": 4.0}]},
+        "plugins": {"pump_runs": f"{tmp_path / 'energy.py'}:pump",
+                    "miss": f"{tmp_path / 'energy.py'}:last"},
+        "objectives": [{"metric": "cycle_time"}],
+        "constraints": [{"metric": m, "min": -1e9} for m in
+                        ("pump_energy", "pump_runs", "miss", "final_error", "peak_pressure",
+                         "health")]})
+    result = optimize(study, out=tmp_path / "out", processes=1, sensitivity=False)
+    metrics = result.evaluations[0]["metrics"]
+    assert metrics["cycle_time"] == 4.0
+    assert metrics["pump_energy"] > 0.0
+    assert metrics["pump_energy"] == pytest.approx(metrics["pump_runs"], rel=1e-9)
+    assert metrics["miss"] == pytest.approx(metrics["final_error"], abs=1e-6)
+    assert metrics["final_error"] < 2.0 and metrics["health"] == 0.0
+    assert 0.1 < metrics["peak_pressure"] <= 9.0 * 1.01  # MPa, within the relief's setting

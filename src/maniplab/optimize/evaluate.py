@@ -75,7 +75,9 @@ class Evaluator:
         self.history: list[dict[str, Any]] = []
         self.computed = 0
         self.cached = 0
-        self.bar = Progress(study.budget, f"optimize {base.name}", progress)
+        # the baseline, the search, and the sensitivities (two neighbours per variable)
+        total = 1 + study.budget + 2 * len(study.variables)
+        self.bar = Progress(total, f"optimize {base.name}", progress)
 
     def key(self, overrides: dict[str, Any]) -> str:
         """The cache key of the candidate given by ``overrides``."""
@@ -109,6 +111,8 @@ class Evaluator:
             if stored is None and key not in todo:
                 todo[key] = overrides
         self.cached += sum(1 for r in records if r is not None)
+        for _ in range(sum(1 for r in records if r is not None)):
+            self.bar.step("from the cache")
         fresh = self._compute(todo)
         out = []
         for (key, values, overrides), stored in zip(keys, records):
@@ -128,14 +132,19 @@ class Evaluator:
         with interrupts_deferred():
             futures = {self.executor.submit(self.job, overrides): key
                        for key, overrides in todo.items()}
-        for future in completed(futures):
-            key = futures[future]
-            results[key] = self._store(key, future.result())
+        try:
+            for future in completed(futures):
+                key = futures[future]
+                results[key] = self._store(key, future.result())
+        except BaseException:  # Ctrl-C: a borrowed executor (Dask) drops what has not started
+            for future in futures:
+                future.cancel()
+            raise
         return results
 
     def _store(self, key: str, record: dict[str, Any]) -> dict[str, Any]:
         record = {"key": key, **record}
         self.cache.put(record)
         self.computed += 1
-        self.bar.step(f"{self.computed} computed")
+        self.bar.step(f"{self.computed} computed, {self.cached} from the cache")
         return record

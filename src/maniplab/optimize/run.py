@@ -96,7 +96,7 @@ def optimize(study: str | os.PathLike[str] | dict[str, Any] | Study, *,
         raise ManiplabError(f"{folder} holds {len(cache)} evaluations of an earlier study; pass "
                             "--resume (resume=True) to continue it, or choose another folder")
     folder.mkdir(parents=True, exist_ok=True)
-    pool, owned = _executor(executor, scheduler, processes)
+    pool, owned, client = _executor(executor, scheduler, processes)
     evaluator = Evaluator(base, study, cache, pool, progress)
     try:
         baseline = evaluator.evaluate([_base_values(base, study.variables)])[0]
@@ -116,6 +116,8 @@ def optimize(study: str | os.PathLike[str] | dict[str, Any] | Study, *,
         raise
     finally:
         evaluator.bar.close()
+        if client is not None:  # the Dask client this call opened for --scheduler
+            client.close()
     if owned and pool is not None:
         pool.shutdown()
     best_spec = base.with_overrides(best["overrides"]) if best else None
@@ -158,8 +160,8 @@ def _base_values(base: ManipulatorSpec, variables: tuple[Variable, ...]) -> list
 
 
 def _executor(executor: Any, scheduler: str | None, processes: int | None
-              ) -> tuple[cf.Executor | None, bool]:
-    """(the executor, whether this call owns it)."""
+              ) -> tuple[cf.Executor | None, bool, Any]:
+    """(the executor, whether this call owns its pool, the Dask client it opened or None)."""
     if scheduler is not None:
         try:
             from dask.distributed import Client
@@ -169,15 +171,16 @@ def _executor(executor: Any, scheduler: str | None, processes: int | None
             executor = Client(scheduler, timeout="10s")
         except (OSError, TimeoutError) as exc:
             raise ManiplabError(f"cannot reach the Dask scheduler {scheduler}: {exc}") from None
+        return executor.get_executor(), False, executor
     if executor is not None:
         if hasattr(executor, "get_executor"):
-            return executor.get_executor(), False
+            return executor.get_executor(), False, None
         if isinstance(executor, cf.Executor):
-            return executor, False
+            return executor, False, None
         raise ManiplabError(f"executor must be a concurrent.futures.Executor or a "
                             f"dask.distributed.Client, got {type(executor).__name__}")
     workers = processes or os.cpu_count() or 1
-    return (None, False) if workers == 1 else (process_pool(workers), True)
+    return (None, False, None) if workers == 1 else (process_pool(workers), True, None)
 
 
 def _sensitivity(evaluator: Evaluator, study: Study, best: dict[str, Any]) -> dict[str, float]:
