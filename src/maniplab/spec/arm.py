@@ -24,6 +24,7 @@ body.com                   length/2 * direction (the middle of the body)
 body.inertia               slender rod about the COG: m L²/12 (1 - e eᵀ); zero when massless
 joints[].actuator          {type: torque} (an ideal force or torque source, no limit)
 joints[].friction          {model: none}
+joints[].max_moment        none (no structural limit in the load chart)
 hydraulic.bulk_modulus     1.4e9 Pa (mineral oil); .leakage 0; .valve_tau 0.01 s;
                            .current_limit 1.0 (valve_gain is then the flow at full command)
 friction.*                 0 (stribeck_velocity 0.01 m/s or rad/s, stick_velocity 1e-3,
@@ -32,6 +33,8 @@ actuator.cylinder.friction none (a pinned cylinder's rod friction, N on the rod;
                            stribeck_velocity 0.01 m/s, stick_velocity 1e-3 m/s)
 end_effector               mass 0 kg, offset [0, 0, 0] m, size derived from the mass (visual only)
 control                    none: the controller's defaults (see ControlSpec)
+base                       none (no tipping in the load chart); base.com [0, 0, 0] m,
+                           base.ground 0 m
 =========================  ===================================================================
 
 Numbers may be written as integers or floats (``1e-11`` is a float); booleans, text, NaN and
@@ -243,6 +246,9 @@ class Joint:
         body: the connecting body, or None (l_b = 0, m_b = 0).
         stop_energy: the kinetic energy its end stops may take at an impact, J: a run whose
             joint reaches a limit with more is reported (None: the default, 100 J).
+        max_moment: the largest load the joint's structure may carry, N·m on a rotational
+            joint, N on a prismatic one (rating data: the load chart's structural limit; None:
+            no limit). Not part of the MuJoCo model.
     """
 
     EXAMPLE: ClassVar[str] = "name: q1, type: R, axis: z"
@@ -255,6 +261,7 @@ class Joint:
     actuator: Actuator = TorqueActuator()
     friction: Friction = Friction()
     stop_energy: Positive | None = None
+    max_moment: Positive | None = None
 
     @field_validator("limits")
     @classmethod
@@ -373,6 +380,89 @@ class Supply:
     displacement: Literal["variable", "fixed"] = "variable"
 
 
+def _footprint(value: tuple[tuple[float, float], ...]) -> tuple[tuple[float, float], ...]:
+    """The corners of a convex polygon, in order (either way round), counter-clockwise."""
+    if len(value) < 3:
+        raise ValueError(f"footprint {[list(c) for c in value]} has {len(value)} corners; "
+                         "expected at least 3 [x, y] corners of a convex polygon")
+    corners = np.asarray(value, dtype=float)
+    edges = np.roll(corners, -1, axis=0) - corners
+    size = float(np.abs(corners - corners.mean(axis=0)).max())
+    if size == 0.0 or float(np.linalg.norm(edges, axis=1).min()) <= 1e-9 * size:
+        raise ValueError(f"footprint {[list(c) for c in value]} repeats a corner or has no "
+                         "extent; expected the corners of a convex polygon, e.g. [[-1, -1], "
+                         "[1, -1], [1, 1], [-1, 1]]")
+    turns = edges[:, 0] * np.roll(edges, -1, axis=0)[:, 1] - \
+        edges[:, 1] * np.roll(edges, -1, axis=0)[:, 0]
+    angles = np.arctan2(turns, np.einsum("ij,ij->i", edges, np.roll(edges, -1, axis=0)))
+    tol = 1e-9 * size * size
+    if not (np.all(turns > tol) or np.all(turns < -tol)) or \
+            abs(abs(float(angles.sum())) - 2.0 * math.pi) > 1e-6:
+        raise ValueError(f"footprint {[list(c) for c in value]} is not a convex polygon (its "
+                         "corners in order, no three on a line); expected e.g. [[-1, -1], "
+                         "[1, -1], [1, 1], [-1, 1]]")
+    return value if turns[0] > 0.0 else tuple(reversed(value))
+
+
+@validated
+class Base:
+    """The machine the arm stands on, for the load chart's tipping (rating data; not part of the
+    MuJoCo model): its mass and centre of gravity, and the polygon it stands on.
+
+    Attributes:
+        mass: the machine without the arm (carrier, counterweight, slew bearing...), kg.
+        com: its centre of gravity in base axes, m, shape (3,).
+        footprint: the support polygon's corners [x, y] in base axes (the outriggers' pads,
+            the tracks' or wheels' contact), m, at height ``ground``: a convex polygon, its
+            corners in order either way round (kept counter-clockwise).
+        ground: the height of the support plane in base axes, m (the base frame above the
+            ground: negative).
+    """
+
+    EXAMPLE: ClassVar[str] = "mass: 8000.0, com: [-0.5, 0, 0.8], footprint: [[-2, -1.5], " \
+                             "[2, -1.5], [2, 1.5], [-2, 1.5]]"
+
+    mass: Positive
+    footprint: Annotated[tuple[Annotated[tuple[Real, Real], BeforeValidator(sequence)], ...],
+                         BeforeValidator(sequence), AfterValidator(_footprint)]
+    com: Vec3 = (0.0, 0.0, 0.0)
+    ground: Real = 0.0
+
+    def project(self, points: np.ndarray, gravity: np.ndarray) -> np.ndarray:
+        """``points`` (m, shape (..., 3)) moved along ``gravity`` onto the support plane: their
+        [x, y] there, shape (..., 2)."""
+        points = np.asarray(points, dtype=float)
+        g = np.asarray(gravity, dtype=float)
+        return points[..., :2] - ((points[..., 2] - self.ground) / g[2])[..., None] * g[:2]
+
+    def edges(self) -> tuple[np.ndarray, np.ndarray]:
+        """The footprint's edges as outward unit normals n (shape (E, 2)) and offsets d (E,):
+        a point x is inside where n·x <= d for every edge."""
+        corners = np.asarray(self.footprint, dtype=float)
+        along = np.roll(corners, -1, axis=0) - corners
+        normals = np.stack([along[:, 1], -along[:, 0]], axis=1)
+        normals /= np.linalg.norm(normals, axis=1)[:, None]
+        return normals, np.einsum("ij,ij->i", normals, corners)
+
+
+def _check_base(base: Base | None, info: ValidationInfo) -> Base | None:
+    """The bare machine stands: its centre of gravity, along gravity, falls inside the
+    footprint."""
+    gravity = info.data.get("gravity")
+    if base is None or gravity is None:
+        return base
+    if abs(gravity[2]) <= 1e-9 * max(math.hypot(*gravity), 1e-300):
+        raise ValueError(f"gravity {list(gravity)} lies in the footprint's plane (base x-y): "
+                         "nothing stands on it")
+    normals, offsets = base.edges()
+    inside = offsets - normals @ base.project(np.asarray(base.com), np.asarray(gravity))
+    if float(inside.min()) <= 0.0:
+        raise ValueError(f"com {list(base.com)} falls outside the footprint (by "
+                         f"{-float(inside.min()):.4g} m over its edge {int(np.argmin(inside)) + 1}"
+                         "): the bare machine tips; expected its centre of gravity inside")
+    return base
+
+
 def _check_supply(supply: Supply | None, info: ValidationInfo) -> Supply | None:
     """Every pinned cylinder draws from the shared supply at its pressure; at least one does."""
     joints = info.data.get("joints")
@@ -423,6 +513,8 @@ class ManipulatorSpec:
         control: the cascade controller's settings, or None for the defaults.
         supply: a pump shared by the pinned cylinders, with a flow limit, or None (each
             cylinder has a supply of its own).
+        base: the machine the arm stands on (mass, centre of gravity, footprint), for the
+            load chart's tipping, or None.
         source: the file the spec was read from (for messages; not part of the spec's value).
     """
 
@@ -432,6 +524,7 @@ class ManipulatorSpec:
     end_effector: EndEffector = EndEffector()
     control: Annotated[ControlSpec | None, AfterValidator(_check_control)] = None
     supply: Annotated[Supply | None, AfterValidator(_check_supply)] = None
+    base: Annotated[Base | None, AfterValidator(_check_base)] = None
     source: str | None = dataclasses.field(default=None, compare=False, repr=False,
                                            metadata={INTERNAL: True})
 
@@ -476,7 +569,7 @@ class ManipulatorSpec:
         """Plain dict (lists, floats, strings) with every default written out; from_dict inverts it."""
         data: dict[str, Any] = plain(dataclasses.asdict(self))
         del data["source"]
-        for optional in ("control", "supply"):
+        for optional in ("control", "supply", "base"):
             if getattr(self, optional) is None:
                 del data[optional]
         for joint, joint_data in zip(self.joints, data["joints"]):
@@ -524,7 +617,7 @@ class ManipulatorSpec:
         )
 
 
-_TOP_KEYS = ("name", "gravity", "joints", "end_effector", "control", "supply")
+_TOP_KEYS = ("name", "gravity", "joints", "end_effector", "control", "supply", "base")
 
 
 def _from_dict(data: Any, source: str | None, lines: Mapping[Loc, int],
