@@ -20,8 +20,30 @@ chart then rates each pose at the largest payload held within the rating over th
 crane makers rate holding at a working pressure with a margin, rather than at the relief valve,
 which is a protection, not a rating).
 
+Each pose's rating is the least of what holds it (``cause``):
+
+- ``"holding"``: the actuators' holding ranges, as above;
+- ``"structure"``: each joint's structural limit ``max_moment`` M_j (the spec's rating data):
+  the payload at which |G_j(q) + m h_j(q)| reaches M_j, the same linear form as the holding
+  (the safety factor does not divide it: it is an allowable load already);
+- ``"tipping"``: with a ``base`` in the spec, the payload at which the whole machine's centre of
+  gravity (the base's mass at its COM, every link's mass at its COM at q, the payload at its
+  centre of gravity), moved along gravity onto the support plane, reaches an edge of the
+  footprint. For an edge with outward normal n and offset d (inside: n·x <= d) the combined
+  centre (S0 + m p)/(M0 + m) reaches it at m = (d M0 - n·S0)/(n·p - d), where the payload's
+  point p lies beyond it (n·p > d); M0, S0 the mass and first moment without the payload, on
+  the plane. That payload is divided by a ``stability`` factor (the tipping load over the
+  rated load). A machine that tips without a payload at q is rated 0 there.
+
+On a ``slope`` (degrees) gravity is tilted by that angle towards the base's +x (the ground falls
+along +x): holding, structure and tipping are all taken with the tilted gravity, and a slew (a
+rotational joint whose axis is along the spec's gravity) then carries a torque its drive must
+hold (its holding range) and its structure carry (its ``max_moment``). A slew is then charted
+over its range, and the figure rates each point at the least over the slew (all round).
+
 The chart is drawn as crane makers draw theirs: payload over horizontal reach (distance from the
-vertical axis through the base) and height (along -g).
+vertical axis through the base) and height (along -g, the spec's gravity even on a slope: the
+machine's own axes).
 """
 
 from __future__ import annotations
@@ -38,6 +60,10 @@ from maniplab.errors import ManiplabError
 from maniplab.mjcf_gen import END_EFFECTOR, build_model
 from maniplab.mjcf_gen.builder import SpecLike
 from maniplab.spec import ManipulatorSpec, model_of
+
+CAUSES = ("holding", "structure", "tipping")
+"""What limits a pose's rating: an actuator's holding range, a joint's structural limit, the
+machine's stability against tipping."""
 
 MAX_POSES = 20_000
 """Default bound on the poses of a chart's grid (points per joint follow from it)."""
@@ -57,8 +83,22 @@ class LoadChart:
         position: the payload's position at each pose, m, shape (P, 3).
         payload: the largest payload held there, kg, shape (P,) (0: the arm cannot hold itself
             there; inf: no joint limits it).
-        joint: index of the limiting joint, shape (P,) (-1 where none limits).
-        gravity: the gravity vector, m/s², shape (3,).
+        joint: index of the limiting joint, shape (P,) (-1 where none limits, and where the
+            machine tips).
+        gravity: the spec's gravity vector, m/s², shape (3,) (the chart's reach and height;
+            on a ``slope`` the loads are taken with it tilted).
+        rating: the working pressure, Pa, or None (the reliefs').
+        safety: the factor every holding range is divided by.
+        cause: what limits each pose, one of :data:`CAUSES`, shape (P,) ("" where nothing
+            limits).
+        edge: the footprint edge the machine tips over (its first corner's index), shape (P,)
+            (-1 where tipping does not limit).
+        stability: the factor the tipping payload is divided by.
+        slope: the ground's slope, degrees (gravity tilted towards the base's +x).
+        shape: the grid's values per joint (``q`` is their combinations, the last joint's
+            fastest).
+        slews: the joints whose axis is along the spec's gravity (their torque comes from a
+            slope only) and which the grid spans.
     """
 
     spec: ManipulatorSpec
@@ -69,6 +109,12 @@ class LoadChart:
     gravity: np.ndarray
     rating: float | None = None
     safety: float = 1.0
+    cause: np.ndarray = dataclasses.field(default_factory=lambda: np.array([], dtype=str))
+    edge: np.ndarray = dataclasses.field(default_factory=lambda: np.array([], dtype=int))
+    stability: float = 1.0
+    slope: float = 0.0
+    shape: tuple[int, ...] = ()
+    slews: tuple[int, ...] = ()
 
     @property
     def rule(self) -> str:
@@ -77,7 +123,15 @@ class LoadChart:
                     f"up to the working pressure {self.rating / 1e6:g} MPa")
         factor = "" if self.safety == 1.0 else f", every holding range over a safety factor " \
                                                 f"of {self.safety:g}"
-        return f"valves closed; each cylinder {pressure}{factor}; friction not counted"
+        words = [f"valves closed; each cylinder {pressure}{factor}"]
+        if any(joint.max_moment is not None for joint in self.spec.joints):
+            words.append("structural limits")
+        if self.spec.base is not None:
+            words.append("tipping" + ("" if self.stability == 1.0 else
+                                      f" over a stability factor of {self.stability:g}"))
+        if self.slope:
+            words.append(f"on a {self.slope:g}° slope")
+        return "; ".join(words) + "; friction not counted"
 
     @property
     def height(self) -> np.ndarray:
@@ -90,28 +144,60 @@ class LoadChart:
         return reach_height(self.position, self.gravity)[0]
 
     def limiting(self, k: int) -> str | None:
-        """Name of the joint that limits pose ``k`` (None: none does)."""
+        """Name of the joint that limits pose ``k`` (None: none does, or the machine tips)."""
         j = int(self.joint[k])
         return self.spec.joints[j].name if j >= 0 else None
 
+    def describe(self, k: int) -> str:
+        """What limits pose ``k``, in words: the cause and the joint, or the tipping edge."""
+        cause = str(self.cause[k])
+        if cause == "tipping":
+            assert self.spec.base is not None
+            corners = self.spec.base.footprint
+            e = int(self.edge[k])
+            a, b = corners[e], corners[(e + 1) % len(corners)]
+            return f"tipping over the footprint's edge {list(a)}-{list(b)}"
+        return f"{cause} of {self.limiting(k)}" if cause else "no limit"
+
+    def all_round(self) -> np.ndarray:
+        """For each pose, the index of the pose that rates it whatever the slews' angles: the
+        least payload over the slews' values, the other joints as at the pose. Shape (P,);
+        ``arange(P)`` without a slew in the grid."""
+        index = np.arange(len(self.q))
+        if not self.slews:
+            return index
+        payload = self.payload.reshape(self.shape)
+        picked = index.reshape(self.shape)
+        for axis in self.slews:
+            at = np.argmin(payload, axis=axis)
+            payload = np.take_along_axis(payload, np.expand_dims(at, axis), axis)
+            picked = np.take_along_axis(picked, np.expand_dims(at, axis), axis)
+        return np.broadcast_to(picked, self.shape).reshape(-1)
+
     def to_dict(self) -> dict[str, Any]:
         """Plain data for JSON: the arm, the rule, and per pose q, reach, height, payload and
-        the limiting joint (payload null where no joint limits it)."""
+        the limiting joint (payload null where no joint limits it), the cause and the tipping
+        edge (null unless the machine tips)."""
         reach, height = self.reach, self.height
         return {
             "spec": self.spec.name,
             "joints": list(self.spec.joint_names),
             "rule": self.rule,
+            "slope_deg": self.slope,
             "poses": [{"q": self.q[k].tolist(), "reach_m": float(reach[k]),
                        "height_m": float(height[k]),
                        "payload_kg": float(self.payload[k]) if math.isfinite(self.payload[k])
                        else None,
-                       "limited_by": self.limiting(k)} for k in range(len(self.q))],
+                       "limited_by": self.limiting(k),
+                       "cause": str(self.cause[k]) or None,
+                       "edge": int(self.edge[k]) if self.edge[k] >= 0 else None}
+                      for k in range(len(self.q))],
         }
 
 
 def load_chart(spec: SpecLike, *, points: int | None = None, max_poses: int = MAX_POSES,
-               rating: float | None = None, safety: float = 1.0) -> LoadChart:
+               rating: float | None = None, safety: float = 1.0, stability: float = 1.0,
+               slope: float = 0.0) -> LoadChart:
     """The load chart of ``spec`` over a grid of poses within its joint limits.
 
     Args:
@@ -121,10 +207,14 @@ def load_chart(spec: SpecLike, *, points: int | None = None, max_poses: int = MA
         rating: a working pressure rating, Pa: every hydraulic actuator holds up to it instead
             of its relief's setting (None: the relief's, else the supply's).
         safety: a safety factor (at least 1) every holding range is divided by.
+        stability: a stability factor (at least 1) the tipping payload is divided by (with a
+            ``base`` in the spec).
+        slope: the ground's slope, degrees in [0, 90): gravity tilted by it towards the base's
+            +x.
 
     Raises:
         LoadChartError: the arm has no gravity, an actuator declares no holding range, or a bad
-            rating or safety factor.
+            rating, safety or stability factor or slope.
     """
     spec = resolve_spec(spec)
     if rating is not None and not (math.isfinite(rating) and rating > 0.0):
@@ -132,18 +222,36 @@ def load_chart(spec: SpecLike, *, points: int | None = None, max_poses: int = MA
                              "pascals")
     if not (math.isfinite(safety) and safety >= 1.0):
         raise LoadChartError(f"safety factor {safety!r}: it must be a number of at least 1")
-    statics = Statics(spec, rating, safety)
+    if not (math.isfinite(stability) and stability >= 1.0):
+        raise LoadChartError(f"stability factor {stability!r}: it must be a number of at least 1")
+    if not (math.isfinite(slope) and 0.0 <= slope < 90.0):
+        raise LoadChartError(f"slope {slope!r}: it must be a number of degrees in [0, 90)")
+    statics = Statics(spec, rating, safety, stability, slope)
     idle = statics.idle_joints()
     if points is None:
         active = max(1, spec.n - len(idle))
         points = max(2, math.floor(max_poses ** (1.0 / active) + 1e-9))
     poses = grid(spec, points, idle)
-    loads = [statics.loads(q) for q in poses]
-    positions = np.array([p for _, _, p in loads])
-    best = [statics.largest(g, h, q) for (g, h, _), q in zip(loads, poses)]
-    return LoadChart(spec, poses, positions, np.array([m for m, _ in best]),
-                     np.array([j for _, j in best], dtype=int), statics.gravity.copy(),
-                     rating, safety)
+    shape = tuple(1 if j in idle else points for j in range(spec.n))
+    rated = [statics.rate(q) for q in poses]
+    slews = tuple(j for j in statics.slew_joints() if j not in idle)
+    return LoadChart(spec, poses, np.array([r.position for r in rated]),
+                     np.array([r.payload for r in rated]),
+                     np.array([r.joint for r in rated], dtype=int),
+                     np.asarray(spec.gravity, dtype=float), rating, safety,
+                     np.array([r.cause for r in rated], dtype=str),
+                     np.array([r.edge for r in rated], dtype=int), stability, slope, shape, slews)
+
+
+@dataclasses.dataclass(frozen=True)
+class Rated:
+    """One pose's rating: the payload, what limits it, and where the payload is."""
+
+    payload: float
+    cause: str
+    joint: int
+    edge: int
+    position: np.ndarray
 
 
 def grid(spec: ManipulatorSpec, points: int, idle: frozenset[int] = frozenset()) -> np.ndarray:
@@ -166,12 +274,15 @@ class Statics:
     """The gravity loads of an arm at rest, from its MuJoCo model without the payload."""
 
     def __init__(self, spec: ManipulatorSpec, rating: float | None = None,
-                 safety: float = 1.0) -> None:
+                 safety: float = 1.0, stability: float = 1.0, slope: float = 0.0) -> None:
         self.spec, self.rating, self.safety = spec, rating, safety
-        self.gravity = np.asarray(spec.gravity, dtype=float)
-        if not np.any(self.gravity):
+        self.stability, self.base = stability, spec.base
+        if not np.any(spec.gravity):
             raise LoadChartError(f"{_where(spec)}no gravity (gravity: [0, 0, 0]): nothing to "
                                  "hold, no load chart")
+        self.gravity = tilted(np.asarray(spec.gravity, dtype=float), slope)
+        self.structure = np.array([math.inf if joint.max_moment is None else joint.max_moment
+                                   for joint in spec.joints])
         self.actuators = [model_of(joint) for joint in spec.joints]
         # The arm's own model with the payload's mass and inertia taken out after compiling: a
         # spec without them may be refused (a rotator that turns only the payload drives no mass).
@@ -179,6 +290,7 @@ class Statics:
         self.body = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, END_EFFECTOR)
         self.model.body_mass[self.body] = 0.0
         self.model.body_inertia[self.body] = 0.0
+        self.model.opt.gravity[:] = self.gravity
         self.data = mujoco.MjData(self.model)
         self.com = np.asarray(spec.end_effector.com, dtype=float)
         self._jac = np.zeros((3, self.model.nv))
@@ -196,7 +308,57 @@ class Statics:
         position = d.xpos[self.body].copy()
         cog = position + d.xmat[self.body].reshape(3, 3) @ self.com
         mujoco.mj_jac(m, d, self._jac, None, cog, self.body)
+        self._cog = cog
         return self._bias.copy(), -self._jac.T @ self.gravity, position
+
+    def rate(self, q: np.ndarray) -> Rated:
+        """The rating of pose q: the least of holding, structure and tipping."""
+        g, h, position = self.loads(q)
+        held, holder = self.largest(g, h, q)
+        carried, carrier = _room(g, h, -self.structure, self.structure)
+        stands, edge = self.tipping()
+        options = [(held, holder, -1), (carried, carrier, -1), (stands, -1, edge)]
+        k = min(range(3), key=lambda i: options[i][0])  # ties: holding, structure, tipping
+        payload, joint, edge = options[k]
+        if not math.isfinite(payload):
+            return Rated(math.inf, "", -1, -1, position)
+        return Rated(payload, CAUSES[k], joint, edge, position)
+
+    def moments(self) -> tuple[float, np.ndarray, np.ndarray]:
+        """At the pose of the last :meth:`loads`: the machine's mass without the payload (kg),
+        its first moment (kg·m) and the payload's point (m), on the support plane along gravity,
+        each [x, y] shape (2,)."""
+        assert self.base is not None
+        masses = self.model.body_mass[1:]
+        points = self.base.project(self.data.xipos[1:], self.gravity)
+        mass = self.base.mass + float(masses.sum())
+        moment = self.base.mass * self.base.project(np.asarray(self.base.com), self.gravity) + \
+            masses @ points
+        return mass, moment, self.base.project(self._cog, self.gravity)
+
+    def tipping(self) -> tuple[float, int]:
+        """At the pose of the last :meth:`loads`: the largest payload before the machine tips,
+        over the stability factor (inf without a base), and the edge it tips over (-1: none)."""
+        if self.base is None:
+            return math.inf, -1
+        mass, moment, point = self.moments()
+        normals, offsets = self.base.edges()
+        room = offsets * mass - normals @ moment
+        if room.min() < 0.0:  # it tips without a payload
+            return 0.0, int(np.argmin(room))
+        beyond = normals @ point - offsets
+        with np.errstate(divide="ignore"):
+            largest = np.where(beyond > 0.0, room / np.where(beyond > 0.0, beyond, 1.0), np.inf)
+        e = int(np.argmin(largest))
+        return (float(largest[e]) / self.stability, e) if math.isfinite(largest[e]) else \
+            (math.inf, -1)
+
+    def slew_joints(self) -> tuple[int, ...]:
+        """The rotational joints whose axis is along the spec's gravity (slews)."""
+        down = np.asarray(self.spec.gravity, dtype=float)
+        down /= np.linalg.norm(down)
+        return tuple(j for j, joint in enumerate(self.spec.joints)
+                     if not joint.prismatic and abs(abs(joint.axis_vector @ down) - 1.0) < 1e-12)
 
     def idle_joints(self, trials: int = 4) -> frozenset[int]:
         """The joints whose motion changes neither the loads, the holding ranges nor the payload's
@@ -221,8 +383,9 @@ class Statics:
         height."""
         g, h, position = self.loads(q)
         low, high = self.ranges(q)
-        reach, height = reach_height(position, self.gravity)
-        return np.r_[g, h, low, high, reach, height]
+        reach, height = reach_height(position, np.asarray(self.spec.gravity, dtype=float))
+        tipping = np.r_[self.moments()[1:]] if self.base is not None else np.zeros(0)
+        return np.r_[g, h, low, high, reach, height, tipping]
 
     def ranges(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Each joint's holding range at q, (lowest, highest), N or N·m, each shape (n,)."""
@@ -238,14 +401,35 @@ class Statics:
 
     def largest(self, g: np.ndarray, h: np.ndarray, q: np.ndarray) -> tuple[float, int]:
         """The largest payload held at q (kg) and the joint that limits it (-1: none)."""
-        low, high = self.ranges(q)
-        over = np.flatnonzero((g < low) | (g > high))
-        if over.size:  # the arm alone is more than that joint holds
-            return 0.0, int(over[0])
-        with np.errstate(divide="ignore", invalid="ignore"):
-            room = np.where(h > 0.0, (high - g) / h, np.where(h < 0.0, (low - g) / h, np.inf))
-        j = int(np.argmin(room))
-        return (float(room[j]), j) if math.isfinite(room[j]) else (math.inf, -1)
+        return _room(g, h, *self.ranges(q))
+
+
+def _room(g: np.ndarray, h: np.ndarray, low: np.ndarray, high: np.ndarray) -> tuple[float, int]:
+    """The largest m >= 0 at which every joint's load g + m h stays within [low, high], and the
+    joint that bounds it (-1: none): (0, j) where the arm alone is beyond joint j's range."""
+    over = np.flatnonzero((g < low) | (g > high))
+    if over.size:  # the arm alone is more than that joint holds
+        return 0.0, int(over[0])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        room = np.where(h > 0.0, (high - g) / h, np.where(h < 0.0, (low - g) / h, np.inf))
+    j = int(np.argmin(room))
+    return (float(room[j]), j) if math.isfinite(room[j]) else (math.inf, -1)
+
+
+def tilted(gravity: np.ndarray, slope: float) -> np.ndarray:
+    """``gravity`` tilted by ``slope`` degrees towards the base's +x (towards +y when gravity is
+    along x): the gravity of a machine standing on ground that falls along +x."""
+    if slope == 0.0:
+        return gravity
+    norm = float(np.linalg.norm(gravity))
+    down = gravity / norm
+    for axis in np.eye(3)[:2]:
+        downhill = axis - (axis @ down) * down
+        if np.linalg.norm(downhill) > 1e-6:
+            break
+    downhill /= np.linalg.norm(downhill)
+    angle = math.radians(slope)
+    return norm * (math.cos(angle) * down + math.sin(angle) * downhill)
 
 
 def reach_height(position: np.ndarray, gravity: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
