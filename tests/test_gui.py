@@ -631,3 +631,75 @@ def test_the_plot_pane_is_large_interactive_and_exports(tmp_path: Path) -> None:
             assert "<svg" in svg and "heavy (payload=3000)" in svg
     finally:
         app.close()
+
+
+def _projector(driver: Any, app: Gui) -> Any:
+    """World points (m, shape (K, 3)) -> screenshot pixels (x, y), through the camera the page
+    reports (its pose, OpenCV frame: x right, y down, z forward; vertical fov; aspect) and the
+    canvas's place on the page."""
+    camera = next(iter(app.server.get_clients().values())).camera
+    rect = driver.execute_script("var r = document.querySelector('canvas')"
+                                 ".getBoundingClientRect(); return [r.left, r.top, r.width, "
+                                 "r.height, window.innerWidth];")
+    rotation = np.empty(9)
+    mujoco.mju_quat2Mat(rotation, np.asarray(camera.wxyz, dtype=float))
+    frame, eye = rotation.reshape(3, 3), np.asarray(camera.position, dtype=float)
+    half = np.tan(float(camera.fov) / 2.0)
+
+    def project(points: np.ndarray) -> np.ndarray:
+        local = (np.atleast_2d(points) - eye) @ frame  # camera coordinates
+        assert np.all(local[:, 2] > 0), "a point behind the camera"
+        x = local[:, 0] / (local[:, 2] * half * rect[2] / rect[3])
+        y = local[:, 1] / (local[:, 2] * half)
+        return np.stack([rect[0] + (x + 1) / 2 * rect[2], rect[1] + (y + 1) / 2 * rect[3]], 1)
+
+    project.rect = rect  # type: ignore[attr-defined]
+    return project
+
+
+def test_the_camera_frames_the_arm_and_pinned_cylinders_are_drawn(tmp_path: Path) -> None:
+    """Issue 37, 3D that frames: at 1280x800 and 1920x1080 the arm's box projects inside the 3D
+    view, beside the control panel (docked, not over it), and fills a good part of it; the lift
+    cylinder of patu655 is drawn as a teal barrel along its pin line (its pixels there)."""
+    spec = ml.builtin_spec("patu655")
+    app = Gui(spec, tmp_path / "ws", port=_port())
+    try:
+        arm = app.configure.arm3d
+        assert arm is not None
+        lo, hi = arm.bounds()
+        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
+                            for z in (lo[2], hi[2])])
+        # the lift cylinder's pin line, from MuJoCo's tendon through its pins at the pose shown
+        view = arm.view
+        first = view.data.ten_wrapadr[0]
+        pins = view.data.wrap_xpos.reshape(-1, 3)[first:first + view.data.ten_wrapnum[0]]
+        parent, child = pins[0], pins[-1]
+        direction = (child - parent) / np.linalg.norm(child - parent)
+        barrel = 0.9 * spec.joint("lift").actuator.cylinder.min_length  # as drawn from the pin
+        along = parent + np.outer(np.linspace(0.15, 0.75, 9) * barrel, direction)
+        for width, height in ((1280, 800), (1920, 1080)):
+            with web.chromium(width, height) as driver:
+                driver.get(app.url)
+                web.text_shown(driver, "hydraulic")
+                web.wait(lambda: app.server.get_clients(), "the page connected")
+                _close_toasts(driver)
+                time.sleep(1.0)  # the camera's first pose applied
+                project = _projector(driver, app)
+                left, top, w, h, window = project.rect
+                assert left + w < window - 200  # the panel beside the view, not over it
+                box = project(corners)
+                assert np.all(box[:, 0] >= left) and np.all(box[:, 0] <= left + w), box
+                assert np.all(box[:, 1] >= top) and np.all(box[:, 1] <= top + h), box
+                span = box.max(axis=0) - box.min(axis=0)
+                assert span[0] > 0.35 * w or span[1] > 0.35 * h, span
+                png = web.shot(driver, f"frame-{width}x{height}")
+                image = np.asarray(Image.open(png).convert("RGB")).astype(int)
+                hits = 0
+                for x, y in project(along):
+                    patch = image[int(y) - 3:int(y) + 4, int(x) - 3:int(x) + 4].reshape(-1, 3)
+                    r, g, b = patch[:, 0], patch[:, 1], patch[:, 2]
+                    hits += bool(np.any((g > r + 40) & (b > r + 40) & (np.abs(g - b) < 40)))
+                assert hits >= 7, f"{hits} of 9 points of the lift's barrel are teal ({png})"
+    finally:
+        app.close()
+

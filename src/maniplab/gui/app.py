@@ -74,6 +74,7 @@ class Gui:
         self.guard = guard(self.server, self._bug)
         gui = self.server.gui
         gui.configure_theme(control_width="large", show_logo=False, show_share_button=False)
+        gui.main_panel.dock_right()  # beside the 3D view, not over it: the arm framed is seen
         self.job_buttons: list[Any] = []  # disabled while a job runs (Run, Run move, exports)
         self.jobs = Jobs(self._report, self._busy)
         with gui.add_folder("Job", order=0):

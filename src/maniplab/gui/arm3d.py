@@ -3,7 +3,8 @@
 The geometry is the MuJoCo model's (:class:`~maniplab.viz.arm.ArmView`): the same boxes,
 capsules and cylinders the videos show, placed by MuJoCo's own forward kinematics, and coloured
 as the videos colour them (links per index; a joint blue while it sticks, red at a limit).
-Hydraulic cylinders pinned to the links are drawn as thick lines along their tendons.
+Hydraulic cylinders pinned to the links are drawn as barrel and rod along their pin line; the rod
+slides out of the barrel with the stroke.
 """
 
 from __future__ import annotations
@@ -21,6 +22,10 @@ from maniplab.viz.arm import ArmView
 
 _SEGMENTS = 24  # facets around a cylinder or capsule
 _TENDON_WIDTH = 0.08  # m
+BARREL: palette.RGBA = (0.10, 0.45, 0.50, 1.0)
+"""A pinned cylinder's barrel: dark teal steel (no link, joint state or run has it)."""
+ROD: palette.RGBA = (0.86, 0.88, 0.91, 1.0)
+"""Its rod: chrome."""
 
 
 def geom_mesh(model: Any, geom: int) -> trimesh.Trimesh | None:
@@ -68,6 +73,7 @@ class Arm3D:
         opacity = palette.GHOST_ALPHA if tint is not None else 1.0
         self._meshes: list[tuple[int, Any]] = []
         self._colours: dict[int, tuple[int, int, int]] = {}
+        self._surfaces: dict[int, np.ndarray] = {}  # vertices in each geom's frame, m
         rest = np.full(spec.n, int(FrictionMode.SLIP))
         for geom in range(model.ngeom):
             surface = geom_mesh(model, geom)
@@ -82,10 +88,29 @@ class Arm3D:
                 cast_shadow=False, receive_shadow=False)
             self._meshes.append((geom, handle))
             self._colours[geom] = colour
+            self._surfaces[geom] = np.asarray(surface.vertices, dtype=float)
         self._tendons = None
-        if model.ntendon:
+        self.cylinders: list[tuple[int, Any, Any, Any]] = []  # tendon, params, barrel, rod
+        unit = trimesh.creation.cylinder(radius=1.0, height=1.0, sections=_SEGMENTS)
+        unit.apply_translation((0.0, 0.0, 0.5))  # from z = 0 to 1: placed at its start, scaled
+        unit_vertices = np.asarray(unit.vertices, dtype=np.float32)
+        unit_faces = np.asarray(unit.faces, dtype=np.uint32)
+        for k in range(model.ntendon):
+            joint = (model.tendon(k).name or "").split("/")[0]
+            cylinder = getattr(spec.joint(joint).actuator, "cylinder", None) \
+                if joint in spec.joint_names else None
+            if cylinder is None:
+                continue
+            parts = [scene.add_mesh_simple(
+                f"{prefix}/cylinders/{joint}/{part}", vertices=unit_vertices, faces=unit_faces,
+                color=_rgb(tint or colour), opacity=opacity if opacity < 1.0 else None,
+                flat_shading=False, cast_shadow=False, receive_shadow=False)
+                for part, colour in (("barrel", BARREL), ("rod", ROD))]
+            self.cylinders.append((k, cylinder, *parts))
+        drawn = {k for k, *_ in self.cylinders}
+        if model.ntendon > len(drawn):  # a tendon that is no pinned cylinder: a line
             self._tendons = scene.add_line_segments(
-                f"{prefix}/cylinders", points=np.zeros((model.ntendon, 2, 3), dtype=np.float32),
+                f"{prefix}/tendons", points=np.zeros((model.ntendon, 2, 3), dtype=np.float32),
                 colors=_rgb(tint or (0.35, 0.37, 0.40, 1.0)), thickness=_TENDON_WIDTH)
 
     def _colour(self, geom: int, modes: np.ndarray) -> tuple[int, int, int]:
@@ -111,8 +136,24 @@ class Arm3D:
             if colour != self._colours[geom]:
                 handle.color = colour
                 self._colours[geom] = colour
+        segments = _tendon_segments(view.model, view.data)
         if self._tendons is not None:
-            self._tendons.points = _tendon_segments(view.model, view.data)
+            self._tendons.points = segments
+        for k, cylinder, barrel, rod in self.cylinders:
+            for handle, placed in zip((barrel, rod), cylinder_parts(segments[k], cylinder)):
+                handle.position, handle.wxyz, handle.scale = placed
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """The arm's box in the current pose (every vertex drawn, the floor left out): lowest and
+        highest world coordinates, m, each shape (3,)."""
+        data = self.view.data
+        points = [data.geom_xpos[g] + vertices @ data.geom_xmat[g].reshape(3, 3).T
+                  for g, vertices in self._surfaces.items()]
+        if not points:
+            here = np.asarray(self.end_effector, dtype=float)
+            return here - 0.5, here + 0.5
+        every = np.vstack(points)
+        return every.min(axis=0), every.max(axis=0)
 
     @property
     def end_effector(self) -> np.ndarray:
@@ -123,6 +164,8 @@ class Arm3D:
         """Show or hide the arm."""
         for _, handle in self._meshes:
             handle.visible = visible
+        for _, _, barrel, rod in self.cylinders:
+            barrel.visible = rod.visible = visible
         if self._tendons is not None:
             self._tendons.visible = visible
 
@@ -130,8 +173,42 @@ class Arm3D:
         """Take the arm out of the scene."""
         for _, handle in self._meshes:
             handle.remove()
+        for _, _, barrel, rod in self.cylinders:
+            barrel.remove()
+            rod.remove()
         if self._tendons is not None:
             self._tendons.remove()
+
+
+def cylinder_parts(segment: np.ndarray, cylinder: Any) -> list[tuple[np.ndarray, np.ndarray,
+                                                                       tuple[float, float, float]]]:
+    """Where a pinned cylinder's barrel and rod are drawn when its pins are at ``segment`` (parent
+    pin, child pin; m): (start, rotation wxyz of z onto the pin line, scale (radius, radius,
+    length)) of each. The barrel starts at the parent pin, as long as the retracted cylinder less
+    a tenth; the rod runs from the child pin back into it, so it slides out with the stroke."""
+    start, end = (np.asarray(p, dtype=float) for p in segment)
+    axis = end - start
+    length = float(np.linalg.norm(axis))
+    if length < 1e-9:
+        axis, length = np.array([0.0, 0.0, 1.0]), 1e-9
+    direction = axis / length
+    barrel_length = min(0.9 * float(cylinder.min_length), length)
+    barrel_radius = 0.65 * float(cylinder.bore)  # the tube's wall around the bore
+    rod_radius = 0.5 * float(cylinder.rod)
+    rod_length = max(length - 0.5 * barrel_length, 1e-9)  # from the child pin into the barrel
+    rotation = _z_onto(direction)
+    return [(start, rotation, (barrel_radius, barrel_radius, barrel_length)),
+            (end, _z_onto(-direction), (rod_radius, rod_radius, rod_length))]
+
+
+def _z_onto(direction: np.ndarray) -> np.ndarray:
+    """The quaternion (w, x, y, z) turning the z axis onto the unit vector ``direction``."""
+    z = np.array([0.0, 0.0, 1.0])
+    w = 1.0 + float(direction @ z)
+    if w < 1e-9:  # opposite: half a turn about x
+        return np.array([0.0, 1.0, 0.0, 0.0])
+    q = np.array([w, *np.cross(z, direction)])
+    return q / np.linalg.norm(q)
 
 
 def _tendon_segments(model: Any, data: Any) -> np.ndarray:
@@ -140,5 +217,6 @@ def _tendon_segments(model: Any, data: Any) -> np.ndarray:
     for k in range(model.ntendon):
         first, count = data.ten_wrapadr[k], data.ten_wrapnum[k]
         if count >= 2:
-            segments[k] = data.wrap_xpos[first:first + count].reshape(-1, 3)[[0, count - 1]]
+            # wrap_xpos holds two points per row: the points are its rows split in half
+            segments[k] = data.wrap_xpos.reshape(-1, 3)[first:first + count][[0, count - 1]]
     return segments

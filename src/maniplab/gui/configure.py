@@ -217,9 +217,9 @@ class ConfigureTab:
         server = self.app.server
         if self.arm3d is not None:
             self.arm3d.remove()
-        stage(server, [spec])
         self.arm3d = Arm3D(server.scene, "/arm", spec)
         self.arm3d.pose(home(spec))
+        stage(server, [spec], self.arm3d.bounds())
 
     def _rebuild_fields(self) -> None:
         for field in self.joint_fields:

@@ -60,10 +60,11 @@ class Replay:
         self.arms = [Arm3D(scene, f"{prefix}/run{k}", run.spec,
                            tint=None if k == 0 else palette.run_colour(k))
                      for k, run in enumerate(runs)]
+        self.traced = [_end_effector(arm, motion) for arm, motion in zip(self.arms, self.motions)]
         self.paths = [scene.add_line_segments(
-            f"{prefix}/path{k}", points=_segments(_end_effector(arm, motion)),
+            f"{prefix}/path{k}", points=_segments(points),
             colors=palette.to_uint8(palette.PATH if len(runs) == 1 else palette.run_colour(k)),
-            thickness=PATH_WIDTH) for k, (arm, motion) in enumerate(zip(self.arms, self.motions))]
+            thickness=PATH_WIDTH) for k, points in enumerate(self.traced)]
         self.show(0)
 
     @property
@@ -80,6 +81,13 @@ class Replay:
         """Pose every arm at frame ``frame``."""
         for arm, motion in zip(self.arms, self.motions):
             arm.pose(motion.q[frame], motion.modes[frame])
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """The box of every arm at the frame shown and of every traced path, m."""
+        boxes = [arm.bounds() for arm in self.arms]
+        lo = np.min([b[0] for b in boxes] + [p.min(axis=0) for p in self.traced], axis=0)
+        hi = np.max([b[1] for b in boxes] + [p.max(axis=0) for p in self.traced], axis=0)
+        return lo, hi
 
     def remove(self) -> None:
         """Take the replay out of the scene."""
@@ -116,10 +124,17 @@ def up_axis(spec: ManipulatorSpec) -> int:
     return int(np.argmax(np.abs(gravity))) if np.any(gravity) else 2
 
 
-def stage(server: Any, specs: Sequence[ManipulatorSpec]) -> None:
+FOV = 50.0
+"""The camera's vertical field of view, degrees (a photographer's normal lens: less distortion
+than viser's 75)."""
+
+
+def stage(server: Any, specs: Sequence[ManipulatorSpec],
+          box: tuple[np.ndarray, np.ndarray] | None = None) -> None:
     """The up direction (against gravity), floor grid and initial camera of a scene showing arms
-    ``specs`` (sized to the longest): the camera looks at the middle of the reach from the front
-    right, above."""
+    ``specs`` (sized to the longest): the camera looks from the front right, above, at the middle
+    of ``box`` (the arms' lowest and highest points, m) from where the box's enclosing sphere
+    fills the view's height (without a box: at the middle of the reach)."""
     first = specs[0] if specs else None
     up = up_axis(first) if first else 2
     sign = -np.sign(first.gravity[up]) if first and first.gravity[up] else 1.0
@@ -133,10 +148,19 @@ def stage(server: Any, specs: Sequence[ManipulatorSpec]) -> None:
                           cell_size=max(size / 40.0, 0.1), section_size=max(size / 8.0, 0.5))
     along = axes[0] if up != 0 else axes[1]
     side = np.cross(upward, along)
-    middle = 0.4 * length * along + 0.2 * length * upward
+    direction = 0.4 * along - 0.85 * side + 0.5 * upward
+    direction /= np.linalg.norm(direction)
+    if box is None:
+        middle = 0.4 * length * along + 0.2 * length * upward
+        distance = length * float(np.linalg.norm(0.4 * along - 0.85 * side + 0.5 * upward))
+    else:
+        lo, hi = (np.asarray(b, dtype=float) for b in box)
+        middle = 0.5 * (lo + hi)
+        radius = max(0.5 * float(np.linalg.norm(hi - lo)), 0.2)
+        distance = 1.08 * radius / math.sin(math.radians(FOV) / 2.0)
+    server.initial_camera.fov = math.radians(FOV)
     server.initial_camera.look_at = tuple(middle)
-    server.initial_camera.position = tuple(middle + length * (0.4 * along - 0.85 * side
-                                                               + 0.5 * upward))
+    server.initial_camera.position = tuple(middle + distance * direction)
     server.initial_camera.up = tuple(upward)
 
 
@@ -158,8 +182,8 @@ def replay_html(runs: Sequence[Run], fps: float = 30.0) -> str:
     """A self-contained HTML page replaying ``runs`` (player, arms, paths and the recording inline;
     it opens from a file, offline). ``fps`` as :class:`Replay` takes it."""
     with recording_server() as server:
-        stage(server, [run.spec for run in runs])
         replay = Replay(server.scene, runs, fps)
+        stage(server, [run.spec for run in runs], replay.bounds())
         recorder = server.get_scene_serializer()
         for frame in range(1, replay.frames):
             recorder.insert_sleep(1.0 / replay.fps)

@@ -66,7 +66,7 @@ class WatchTab:
             self.message.content = warning(exc)
             return
         self._set_arm_visible(False)
-        stage(self.app.server, [run.spec for run in runs])
+        stage(self.app.server, [run.spec for run in runs], replay.bounds())
         self.key.content = _key(legend(runs, names))
         self.time.min, self.time.max = float(replay.times[0]), float(replay.times[-1])
         self.time.step = 1.0 / replay.fps
@@ -84,7 +84,8 @@ class WatchTab:
         self.key.content = ""
         self._set_arm_visible(True)
         if shown:  # the floor and camera of the arm being configured again
-            stage(self.app.server, [self.app.spec])
+            arm = self.app.configure.arm3d
+            stage(self.app.server, [self.app.spec], arm.bounds() if arm is not None else None)
 
     def _clear(self) -> None:
         if self.replay is not None:
