@@ -68,6 +68,9 @@ machine's stability against tipping."""
 MAX_POSES = 20_000
 """Default bound on the poses of a chart's grid (points per joint follow from it)."""
 
+SLEW_POINTS = 24
+"""Default points of a slew the grid spans (every 15° of a full turn): the others get more."""
+
 
 class LoadChartError(ManiplabError):
     """No load chart for this arm (no gravity, or an actuator that declares no holding range)."""
@@ -157,7 +160,7 @@ class LoadChart:
             e = int(self.edge[k])
             a, b = corners[e], corners[(e + 1) % len(corners)]
             return f"tipping over the footprint's edge {list(a)}-{list(b)}"
-        return f"{cause} of {self.limiting(k)}" if cause else "no limit"
+        return f"{self.limiting(k)} ({cause})" if cause else "no limit"
 
     def all_round(self) -> np.ndarray:
         """For each pose, the index of the pose that rates it whatever the slews' angles: the
@@ -202,7 +205,8 @@ def load_chart(spec: SpecLike, *, points: int | None = None, max_poses: int = MA
 
     Args:
         spec: a spec, a spec file or a built-in name.
-        points: grid points per joint (default: as many as keep the grid within ``max_poses``).
+        points: grid points per joint (default: as many as keep the grid within ``max_poses``,
+            a slew the grid spans at most :data:`SLEW_POINTS` of them).
         max_poses: bound on the grid's size when ``points`` is not given.
         rating: a working pressure rating, Pa: every hydraulic actuator holds up to it instead
             of its relief's setting (None: the relief's, else the supply's).
@@ -228,13 +232,21 @@ def load_chart(spec: SpecLike, *, points: int | None = None, max_poses: int = MA
         raise LoadChartError(f"slope {slope!r}: it must be a number of degrees in [0, 90)")
     statics = Statics(spec, rating, safety, stability, slope)
     idle = statics.idle_joints()
+    slews = tuple(j for j in statics.slew_joints() if j not in idle)
     if points is None:
         active = max(1, spec.n - len(idle))
         points = max(2, math.floor(max_poses ** (1.0 / active) + 1e-9))
-    poses = grid(spec, points, idle)
-    shape = tuple(1 if j in idle else points for j in range(spec.n))
+        if slews and active > len(slews) and points > SLEW_POINTS:
+            rest = max_poses / SLEW_POINTS ** len(slews)
+            points = max(2, math.floor(rest ** (1.0 / (active - len(slews))) + 1e-9))
+            counts = [SLEW_POINTS if j in slews else points for j in range(spec.n)]
+        else:
+            counts = [points] * spec.n
+    else:
+        counts = [points] * spec.n
+    poses = grid(spec, counts, idle)
+    shape = tuple(1 if j in idle else counts[j] for j in range(spec.n))
     rated = [statics.rate(q) for q in poses]
-    slews = tuple(j for j in statics.slew_joints() if j not in idle)
     return LoadChart(spec, poses, np.array([r.position for r in rated]),
                      np.array([r.payload for r in rated]),
                      np.array([r.joint for r in rated], dtype=int),
@@ -254,19 +266,22 @@ class Rated:
     position: np.ndarray
 
 
-def grid(spec: ManipulatorSpec, points: int, idle: frozenset[int] = frozenset()) -> np.ndarray:
-    """Every combination of ``points`` values per joint, strictly inside its limits (a stop
+def grid(spec: ManipulatorSpec, points: int | list[int],
+         idle: frozenset[int] = frozenset()) -> np.ndarray:
+    """Every combination of ``points`` values per joint (one count for all, or one per joint),
+    strictly inside its limits (a stop
     would hold a load there; ±π for an unlimited joint), an ``idle`` joint at the middle of its
     range only. Shape (P, n)."""
     axes = []
+    counts = [points] * spec.n if isinstance(points, int) else points
     for j, joint in enumerate(spec.joints):
         low, high = joint.limits or (-math.pi, math.pi)
         if j in idle:
             axes.append(np.array([0.5 * (low + high)]))
         elif joint.limits:
-            axes.append(np.linspace(low, high, points + 2)[1:-1])
+            axes.append(np.linspace(low, high, counts[j] + 2)[1:-1])
         else:
-            axes.append(np.linspace(low, high, points, endpoint=False))
+            axes.append(np.linspace(low, high, counts[j], endpoint=False))
     return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, spec.n)
 
 
