@@ -55,7 +55,7 @@ def compute(spec: ManipulatorSpec, study: Study) -> dict[str, float]:
         values.update(_chart_metrics(spec, study, metrics))
     runs: list[Any] = []
     if study.duty_cycle is not None and (any(m in DYNAMIC for m in metrics) or study.plugins):
-        dynamics, runs = _duty_cycle(spec, study)
+        dynamics, runs = duty_cycle(spec, study)
         values.update({m: dynamics[m] for m in DYNAMIC if m in metrics})
     plugins = dict(study.plugins)
     for metric in metrics:
@@ -77,7 +77,8 @@ def _chart_metrics(spec: ManipulatorSpec, study: Study, metrics: tuple[str, ...]
     from maniplab.loadchart import load_chart
 
     s = study.statics
-    chart = load_chart(spec, points=s.points, rating=s.rating, safety=s.safety)
+    chart = load_chart(spec, points=s.points, rating=s.rating, safety=s.safety,
+                       stability=s.stability, slope=s.slope)
     payload, reach = chart.payload, chart.reach
     out = {"payload_min": float(np.min(payload)),
            "reach_max": float(np.max(reach[payload > 0.0], initial=0.0))}
@@ -117,7 +118,8 @@ def _param(spec: ManipulatorSpec, path: str) -> float:
     return float(value)
 
 
-def _duty_cycle(spec: ManipulatorSpec, study: Study) -> tuple[dict[str, float], list[Any]]:
+def duty_cycle(spec: ManipulatorSpec, study: Study) -> tuple[dict[str, float], list[Any]]:
+    """The duty cycle's metrics (the dynamic ones above) and its runs, one per move."""
     from maniplab.control.move import run_move
     from maniplab.model import AnalyticModel
 

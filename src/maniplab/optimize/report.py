@@ -7,6 +7,8 @@
 - ``loadchart.png`` (a study of the load chart): the capacity over reach (the largest payload at
   some pose reaching at least that far) of the baseline and the best, overlaid, with the
   required payloads;
+- ``dutycycle.png`` (a study of a duty cycle): the baseline's and the best's runs again, one
+  move after another: distance from the reference, the highest chamber pressure, pump energy;
 - ``sensitivity.png``: d(first objective)/d(variable) at the best, each scaled by the variable's
   range (or its catalogue step) so that the bars compare.
 """
@@ -25,6 +27,7 @@ from maniplab.optimize.names import unit
 
 if TYPE_CHECKING:
     from maniplab.optimize.run import OptimizeResult
+    from maniplab.optimize.study import Statics
     from maniplab.spec import ManipulatorSpec
 
 
@@ -39,6 +42,8 @@ def write_report(result: OptimizeResult, base: ManipulatorSpec) -> None:
     if result.best_spec is not None and any(
             m in ("payload_min", "reach_max") or m.startswith("payload@") for m in study.metrics):
         figures["loadchart.png"] = _charts(result, base)
+    if result.best_spec is not None and study.duty_cycle is not None:
+        figures["dutycycle.png"] = _duty(result, base)
     if result.sensitivity:
         figures["sensitivity.png"] = _sensitivity(result)
     for name, fig in figures.items():
@@ -88,13 +93,13 @@ def _pareto(result: OptimizeResult) -> Figure:
     return fig
 
 
-def capacity(spec: ManipulatorSpec, points: int, rating: float | None,
-             safety: float) -> tuple[np.ndarray, np.ndarray]:
+def capacity(spec: ManipulatorSpec, s: Statics) -> tuple[np.ndarray, np.ndarray]:
     """(reach, m; the largest payload at some pose reaching at least that far, kg), from the
     load chart, sorted by reach."""
     from maniplab.loadchart import load_chart
 
-    chart = load_chart(spec, points=points, rating=rating, safety=safety)
+    chart = load_chart(spec, points=s.points, rating=s.rating, safety=s.safety,
+                       stability=s.stability, slope=s.slope)
     order = np.argsort(chart.reach)
     reach, payload = chart.reach[order], chart.payload[order]
     envelope = np.maximum.accumulate(payload[::-1])[::-1]
@@ -107,7 +112,7 @@ def _charts(result: OptimizeResult, base: ManipulatorSpec) -> Figure:
     ax = fig.add_subplot()
     assert result.best_spec is not None
     for spec, name, color in ((base, "baseline", "C3"), (result.best_spec, "best", "C0")):
-        reach, payload = capacity(spec, s.points, s.rating, s.safety)
+        reach, payload = capacity(spec, s)
         ax.step(reach, np.where(np.isfinite(payload), payload, np.nan), where="post",
                 color=color, label=name)
     for c in result.study.constraints:
@@ -117,6 +122,40 @@ def _charts(result: OptimizeResult, base: ManipulatorSpec) -> Figure:
     ax.set(xlabel="reach (m)", ylabel="payload held at that reach or beyond (kg)",
            title="load chart: baseline and best")
     ax.legend(loc="best", fontsize="small")
+    return fig
+
+
+def _duty(result: OptimizeResult, base: ManipulatorSpec) -> Figure:
+    """The duty cycle of the baseline and the best, run again: the end-effector's distance from
+    its reference (mm), the highest chamber pressure (MPa) and the pump's energy (kJ), over the
+    cycle's time (the moves one after another)."""
+    from maniplab.errors import ManiplabError
+    from maniplab.optimize.metrics import duty_cycle
+
+    fig = Figure(figsize=(7.0, 6.4), layout="constrained")
+    axes = fig.subplots(3, 1, sharex=True)
+    assert result.best_spec is not None
+    for spec, name, color in ((base, "baseline", "C3"), (result.best_spec, "best", "C0")):
+        try:
+            _, runs = duty_cycle(spec, result.study)
+        except ManiplabError:
+            continue  # a refused baseline: no runs to draw
+        offset, energy = 0.0, 0.0
+        for k, run in enumerate(runs):
+            t = np.asarray(run.t) + offset
+            error = np.linalg.norm(np.asarray(run["x_d"])[:, :3] - np.asarray(run["ee_pos"]),
+                                   axis=1) * 1e3
+            pressure = np.nanmax(np.maximum(run["pA"], run["pB"]), axis=1) / 1e6
+            pump = np.nansum(np.asarray(run["E_pump"]) - np.asarray(run["E_pump"])[0], axis=1)
+            label = name if k == 0 else None
+            axes[0].plot(t, error, color=color, label=label)
+            axes[1].plot(t, pressure, color=color, label=label)
+            axes[2].plot(t, (energy + pump) / 1e3, color=color, label=label)
+            offset, energy = float(t[-1]), energy + float(pump[-1])
+    axes[0].set(ylabel="distance from the\nreference (mm)", title="duty cycle: baseline and best")
+    axes[1].set(ylabel="highest chamber\npressure (MPa)")
+    axes[2].set(ylabel="pump energy (kJ)", xlabel="time over the cycle (s)")
+    axes[0].legend(loc="best", fontsize="small")
     return fig
 
 

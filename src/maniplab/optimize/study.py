@@ -132,12 +132,15 @@ class DutyCycle:
 @dataclasses.dataclass(frozen=True)
 class Statics:
     """The load chart's settings: grid points per joint, working pressure rating (Pa or None),
-    safety factor; and the points over a joint's range for holding metrics."""
+    safety factor, stability factor against tipping (with a machine base), ground slope
+    (degrees); and the points over a joint's range for holding metrics."""
 
     points: int = 9
     rating: float | None = None
     safety: float = 1.0
     holding_points: int = 41
+    stability: float = 1.0
+    slope: float = 0.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -393,16 +396,23 @@ class _Reader:
         return value
 
     def statics(self, value: Any) -> Statics:
-        s = self.mapping(value, ("statics",), ("points", "rating", "safety", "holding_points"))
+        s = self.mapping(value, ("statics",), ("points", "rating", "safety", "holding_points",
+                                               "stability", "slope"))
         safety = self.number(s.get("safety", 1.0), ("statics", "safety"))
-        if safety < 1.0:
-            raise self.fail(("statics", "safety"), f"a safety factor is at least 1, got {safety:g}")
+        stability = self.number(s.get("stability", 1.0), ("statics", "stability"))
+        for key, factor in (("safety", safety), ("stability", stability)):
+            if factor < 1.0:
+                raise self.fail(("statics", key), f"a {key} factor is at least 1, got {factor:g}")
+        slope = self.number(s.get("slope", 0.0), ("statics", "slope"))
+        if not 0.0 <= slope < 90.0:
+            raise self.fail(("statics", "slope"), f"a slope is in [0, 90) degrees, got {slope:g}")
         return Statics(points=self.whole(s.get("points", 9), ("statics", "points"), 2),
                        rating=self.number(s.get("rating"), ("statics", "rating"), positive=True,
                                           optional=True),
                        safety=safety,
                        holding_points=self.whole(s.get("holding_points", 41),
-                                                 ("statics", "holding_points"), 2))
+                                                 ("statics", "holding_points"), 2),
+                       stability=stability, slope=slope)
 
     def duty(self, value: Any) -> DutyCycle:
         loc: tuple[Any, ...] = ("duty_cycle",)
