@@ -352,3 +352,29 @@ def test_a_duty_cycle_is_measured_as_its_runs_say(tmp_path: Path) -> None:
     assert metrics["miss"] == pytest.approx(metrics["final_error"], abs=1e-6)
     assert metrics["final_error"] < 2.0 and metrics["health"] == 0.0
     assert 0.1 < metrics["peak_pressure"] <= 9.0 * 1.01  # MPa, within the relief's setting
+
+
+def test_the_lowest_natural_frequency_is_the_hydraulic_springs(tmp_path: Path) -> None:
+    """A mass on a lumped cylinder's oil springs: ω = sqrt(A² E / (V m)) (Merritt), for each
+    candidate mass; the stiffest design is the lightest."""
+    area, volume, modulus, payload = 0.002, 0.004, 1.2e9, 100.0
+    write(tmp_path, "slide.yaml", {
+        "name": "slide", "gravity": [0.0, 0.0, -9.81],
+        "joints": [{"name": "x", "type": "P", "axis": "x", "limits": [-0.5, 0.5],
+                    "body": {"length": 0.5, "direction": [1, 0, 0], "mass": 300.0},
+                    "actuator": {"type": "hydraulic", "area": area, "volume": volume,
+                                 "bulk_modulus": modulus, "leakage": 1e-13,
+                                 "valve_gain": 5e-4, "valve_tau": 0.01,
+                                 "supply_pressure": 20e6}}],
+        "end_effector": {"mass": payload}})
+    study = write(tmp_path, "stiff.yaml", {
+        "spec": "slide.yaml", "budget": 3,
+        "variables": [{"path": "joints.x.body.mass", "choices": [200.0, 100.0, 300.0]}],
+        "objectives": [{"metric": "frequency_min", "sense": "max"}]})
+    result = optimize(study, out=tmp_path / "out", processes=1, sensitivity=False)
+    for record in result.evaluations:
+        moved = record["values"][0] + payload
+        omega = math.sqrt(area**2 * modulus / (volume * moved))
+        assert record["metrics"]["frequency_min"] == pytest.approx(omega / (2 * math.pi),
+                                                                   rel=1e-6)
+    assert result.best is not None and result.best["values"] == [100.0]

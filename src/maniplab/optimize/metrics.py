@@ -10,6 +10,9 @@ Statics, from the load chart (:func:`maniplab.load_chart`, the study's ``statics
   (min(high, -low) of its holding range) over its range (``statics.holding_points`` points,
   limits included), N·m or N;
 - ``mass``: the arm's bodies' mass, kg;
+- ``frequency_min``: the arm's lowest natural frequency, Hz: the smallest |λ|/2π of the
+  oscillatory modes (complex eigenvalues λ) of the plant linearised at rest, its pressures
+  holding it (:func:`maniplab.linearize`), at the duty cycle's start, else mid-range;
 - ``param:PATH``: the candidate's value at a dotted path (``[i]`` a component), its unit.
 
 Dynamics, from the duty cycle (each move planned and run by ``maniplab control``'s
@@ -61,7 +64,9 @@ def compute(spec: ManipulatorSpec, study: Study) -> dict[str, float]:
     for metric in metrics:
         if metric in values:
             continue
-        if metric == "mass":
+        if metric == "frequency_min":
+            values[metric] = lowest_frequency(spec, study)
+        elif metric == "mass":
             values[metric] = float(sum(j.body.mass for j in spec.joints if j.body is not None))
         elif metric.startswith("holding:"):
             values[metric] = holding(spec, metric[len("holding:"):], study)
@@ -87,6 +92,19 @@ def _chart_metrics(spec: ManipulatorSpec, study: Study, metrics: tuple[str, ...]
             r = float(metric[len("payload@"):])
             out[metric] = float(np.max(payload[reach >= r - 1e-9], initial=0.0))
     return out
+
+
+def lowest_frequency(spec: ManipulatorSpec, study: Study) -> float:
+    """The ``frequency_min`` metric, Hz (inf: no oscillatory mode)."""
+    from maniplab.control.linearize import linearize
+
+    if study.duty_cycle is not None and study.duty_cycle.start is not None:
+        q = np.asarray(study.duty_cycle.start, dtype=float)
+    else:
+        q = np.array([0.5 * sum(j.limits) if j.limits else 0.0 for j in spec.joints])
+    eigenvalues = np.linalg.eigvals(np.asarray(linearize(spec, q).A, dtype=float))
+    modes = np.abs(eigenvalues[eigenvalues.imag > 1e-9 * np.maximum(1.0, np.abs(eigenvalues))])
+    return float(np.min(modes) / (2 * math.pi)) if modes.size else math.inf
 
 
 def holding(spec: ManipulatorSpec, joint: str, study: Study) -> float:

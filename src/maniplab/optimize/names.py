@@ -10,10 +10,11 @@ from collections.abc import Collection
 INDEX = re.compile(r"^(?P<path>.+)\[(?P<index>\d+)\]$")
 """A dotted path ending in a vector component, ``pins.child[0]``."""
 
-STATIC = ("payload_min", "reach_max", "mass")
+STATIC = ("payload_min", "reach_max", "mass", "frequency_min")
 DYNAMIC = ("cycle_time", "rms_error", "final_error", "peak_pressure", "pump_energy", "losses",
            "saturation", "health")
 UNITS = {"payload_min": "kg", "payload@": "kg", "reach_max": "m", "mass": "kg",
+         "frequency_min": "Hz",
          "cycle_time": "s", "rms_error": "mm", "final_error": "mm", "peak_pressure": "MPa",
          "pump_energy": "kJ", "losses": "kJ", "saturation": "s", "health": ""}
 """Unit of each metric (by name or prefix), for tables and figures."""
