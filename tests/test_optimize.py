@@ -378,3 +378,21 @@ def test_the_lowest_natural_frequency_is_the_hydraulic_springs(tmp_path: Path) -
         assert record["metrics"]["frequency_min"] == pytest.approx(omega / (2 * math.pi),
                                                                    rel=1e-6)
     assert result.best is not None and result.best["values"] == [100.0]
+
+
+def test_nelder_mead_refines_the_base_design_locally(tmp_path: Path) -> None:
+    """From the base pins, the local search improves the smallest holding torque, every
+    candidate it reports feasible is feasible by the geometry, and it stays below the grid's
+    optimum."""
+    result = optimize(pin_study(tmp_path, budget=60, optimizer="nelder_mead"),
+                      out=tmp_path / "out", processes=1, sensitivity=False)
+    q = np.linspace(*LIMITS, 121)
+    assert result.method == "nelder_mead" and len(result.evaluations) == 60
+    assert result.evaluations[0]["values"] == result.baseline["values"]
+    assert result.best is not None
+    found = result.best["metrics"]["holding:lift"]
+    assert found > 1.05 * result.baseline["metrics"]["holding:lift"]
+    x, z = result.best["values"]
+    assert found == pytest.approx(float(smallest_holding(np.array(x), np.array(z), q)), rel=1e-6)
+    cx, cz = np.meshgrid(np.linspace(*PIN_X, 121), np.linspace(*PIN_Z, 101), indexing="ij")
+    assert found <= 1.01 * float(smallest_holding(cx, cz, q).max())

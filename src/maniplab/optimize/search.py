@@ -7,6 +7,9 @@
 - ``nsga2`` (optuna's ``NSGAIISampler``): catalogue (categorical), integer and continuous
   variables together, one or several objectives (the Pareto front), constraints by optuna's
   constrained domination. Each generation is asked as one batch and told in order.
+- ``nelder_mead`` (scipy): a local, derivative-free refinement of continuous variables under
+  one objective, from the base design (or the middle of the bounds), one candidate at a time:
+  for polishing a design a global search found, or a study whose baseline is already good;
 - ``grid``: every combination, when all variables are discrete and the combinations fit the
   budget (a catalogue of sizes searched exhaustively: nothing to gain from a heuristic).
 
@@ -89,6 +92,8 @@ def run_search(study: Study, batch: Batch, start: Sequence[Any] | None = None) -
         _grid(study, batch)
     elif method == "differential_evolution":
         _differential_evolution(study, batch, start)
+    elif method == "nelder_mead":
+        _nelder_mead(study, batch, start)
     else:
         _nsga2(study, batch, start)
     return method
@@ -155,6 +160,32 @@ def _differential_evolution(study: Study, batch: Batch, start: Sequence[Any] | N
                                updating="deferred", workers=mapper, init="latinhypercube",
                                integrality=integrality if integrality.any() else None,
                                x0=None if start is None else np.asarray(start, dtype=float))
+
+
+def _nelder_mead(study: Study, batch: Batch, start: Sequence[Any] | None) -> None:
+    from scipy.optimize import Bounds, minimize
+
+    variables = study.variables
+    if any(v.kind != "continuous" for v in variables):
+        from maniplab.optimize.errors import StudyError
+
+        raise StudyError("nelder_mead takes continuous variables only", file=study.source,
+                         field="optimizer")
+    low = np.array([v.low for v in variables], dtype=float)
+    high = np.array([v.high for v in variables], dtype=float)
+    x0 = 0.5 * (low + high) if start is None else np.asarray(start, dtype=float)
+    spent = 0
+
+    def objective(x: np.ndarray) -> float:
+        nonlocal spent
+        if spent >= study.budget:
+            raise _BudgetSpent
+        spent += 1
+        return score(batch([[float(v) for v in x]])[0], study)
+
+    with contextlib.suppress(_BudgetSpent):
+        minimize(objective, x0, method="Nelder-Mead", bounds=Bounds(low, high),
+                 options={"maxfev": study.budget, "xatol": 0.0, "fatol": 0.0})
 
 
 class _BudgetSpent(Exception):

@@ -5,7 +5,7 @@ A study is a YAML file (or the same dict)::
     spec: arm.yaml                  # a spec file (relative to the study file) or a built-in name
     seed: 1                         # same seed, same study: the same candidates, the same result
     budget: 200                     # candidate evaluations (--budget overrides it)
-    optimizer: auto                 # auto, differential_evolution, nsga2 or grid
+    optimizer: auto                 # auto, differential_evolution, nsga2, nelder_mead or grid
     variables:                      # dotted paths as for --set; [i] picks one vector component
       - {path: "joints.q3.actuator.cylinder.pins.child[0]", low: -0.6, high: -0.2}   # m
       - {path: joints.q3.actuator.cylinder.bore, catalogue: iso3320-bore, low: 0.063, high: 0.16}
@@ -35,7 +35,7 @@ from maniplab.optimize.catalogue import CATALOGUES
 from maniplab.optimize.errors import StudyError
 from maniplab.optimize.names import INDEX, metric_problem
 
-OPTIMIZERS = ("auto", "differential_evolution", "nsga2", "grid")
+OPTIMIZERS = ("auto", "differential_evolution", "nsga2", "nelder_mead", "grid")
 """The optimisers a study may ask for (``auto``: see :func:`maniplab.optimize.search.choose`)."""
 
 
