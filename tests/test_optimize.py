@@ -259,6 +259,7 @@ BAD = [
      "expected min or max"),
     ({"constraints": [{"metric": "mass"}]}, "constraints[0].min", "needs a min, a max"),
     ({"optimiser": "auto"}, "optimiser", "did you mean 'optimizer'"),
+    ({"optimizer": "grid"}, "optimizer", "grid takes categorical and integer variables only"),
     ({"variables": [{"path": "joints.lift.actuator.cylinder.bor", "low": 0.1, "high": 0.2}]},
      "variables[0].path", "bor"),
 ]

@@ -75,7 +75,13 @@ def score(record: dict[str, Any], study: Study) -> float:
     objective = study.objectives[0]
     value = record["metrics"][objective.metric]
     value = -value if objective.sense == "max" else value
-    return float(value) if math.isfinite(value) else 1000.0 * PENALTY
+    return 1000.0 * PENALTY if math.isnan(value) else _clipped(value)
+
+
+def _clipped(value: float) -> float:
+    """An infinite metric (a payload no joint limits) as the largest finite number of its sign,
+    so that it compares as it should."""
+    return float(min(max(value, -1e300), 1e300))
 
 
 def run_search(study: Study, batch: Batch, start: Sequence[Any] | None = None) -> str:
@@ -227,9 +233,9 @@ def _nsga2(study: Study, batch: Batch, start: Sequence[Any] | None) -> None:
             values = []
             for o in study.objectives:
                 value = record["metrics"].get(o.metric, math.nan)
-                if record["reason"] is not None or not math.isfinite(value):
+                if record["reason"] is not None or math.isnan(value):
                     value = -PENALTY if o.sense == "max" else PENALTY
-                values.append(float(value))
+                values.append(_clipped(value))
             search.tell(trial, values)
         done += count
 

@@ -274,6 +274,14 @@ class _Reader:
             raise self.fail(("optimizer",), f"unknown optimizer {_shown(optimizer)}; expected "
                                             f"one of {', '.join(OPTIMIZERS)}")
         variables = self.variables(d["variables"])
+        kinds = {v.kind for v in variables}
+        allowed = {"differential_evolution": {"continuous", "integer"},
+                   "nelder_mead": {"continuous"}, "grid": {"integer", "categorical"}}
+        if optimizer in allowed and not kinds <= allowed[optimizer]:
+            takes = " and ".join(sorted(allowed[optimizer]))
+            others = ", ".join(sorted(kinds - allowed[optimizer]))
+            raise self.fail(("optimizer",), f"{optimizer} takes {takes} variables only; use "
+                                            f"nsga2 (or auto) for {others} ones")
         objectives = self.objectives(d["objectives"])
         constraints = self.constraints(d.get("constraints") or [])
         plugins = self.plugins(d.get("plugins") or {})
