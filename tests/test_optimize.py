@@ -22,7 +22,7 @@ import yaml
 from commandline import run_cli
 
 import maniplab as ml
-from maniplab.optimize import StudyError, load_study, optimize
+from maniplab.optimize import StudyError, optimize
 from maniplab.optimize.catalogue import ISO3320_BORE_MM
 
 PIVOT = np.array([0.3, 0.0, -0.8])
@@ -262,6 +262,9 @@ BAD = [
     ({"optimizer": "grid"}, "optimizer", "grid takes categorical and integer variables only"),
     ({"variables": [{"path": "joints.lift.actuator.cylinder.bor", "low": 0.1, "high": 0.2}]},
      "variables[0].path", "bor"),
+    ({"objectives": [{"metric": "holding:tilt", "sense": "max"}]}, "objectives[0].metric",
+     "no joint 'tilt'"),
+    ({"spec": "no_such_arm.yaml"}, "spec", "no_such_arm.yaml"),
 ]
 
 
@@ -275,11 +278,8 @@ def test_a_bad_study_is_one_line_naming_file_and_field(tmp_path: Path, change: d
                             "high": 0.12}],
              "objectives": [{"metric": "mass", "sense": "min"}], **change}
     path = write(tmp_path, "bad.yaml", study)
-    with pytest.raises(StudyError) as caught:
-        if field.startswith("variables[0].path"):
-            optimize(path, out=tmp_path / "out", processes=1)
-        else:
-            load_study(path)
+    with pytest.raises(StudyError) as caught:  # the file's checks, then the arm's
+        optimize(path, out=tmp_path / "out", processes=1)
     message = str(caught.value)
     assert "\n" not in message and str(path) in message and f"field '{field}'" in message
     assert problem in message

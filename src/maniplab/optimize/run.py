@@ -86,8 +86,9 @@ def optimize(study: str | os.PathLike[str] | dict[str, Any] | Study, *,
             study = dataclasses.replace(study, budget=budget)
     else:
         study = load_study(study, budget=budget)
-    base = resolve_spec(study.spec)
+    base = _base(study)
     _check_variables(base, study)
+    _check_joints(base, study)
     folder = Path(out)
     if folder.exists() and not folder.is_dir():
         raise ManiplabError(f"{folder}: exists and is not a folder")
@@ -129,6 +130,32 @@ def optimize(study: str | os.PathLike[str] | dict[str, Any] | Study, *,
 
         write_report(result, base)
     return result
+
+
+def _base(study: Study) -> ManipulatorSpec:
+    """The study's base spec; one that cannot be read is the study's error (field spec)."""
+    from maniplab.errors import SpecError
+    from maniplab.optimize.errors import StudyError
+
+    try:
+        return resolve_spec(study.spec)
+    except SpecError as exc:
+        raise StudyError(str(exc), file=study.source, field="spec") from None
+
+
+def _check_joints(base: ManipulatorSpec, study: Study) -> None:
+    """Each ``holding:JOINT`` metric names a joint of the arm."""
+    from maniplab.optimize.errors import StudyError
+
+    for kind, items in (("objectives", study.objectives), ("constraints", study.constraints)):
+        for i, item in enumerate(items):
+            metric = getattr(item, "metric", "")
+            joint = metric[len("holding:"):] if metric.startswith("holding:") else None
+            if joint is not None and joint not in base.joint_names and not (
+                    joint.isdigit() and int(joint) < base.n):
+                raise StudyError(f"{base.name} has no joint {joint!r}; its joints are "
+                                 f"{', '.join(base.joint_names)}", file=study.source,
+                                 field=f"{kind}[{i}].metric")
 
 
 def _check_variables(base: ManipulatorSpec, study: Study) -> None:
