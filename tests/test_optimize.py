@@ -397,3 +397,37 @@ def test_nelder_mead_refines_the_base_design_locally(tmp_path: Path) -> None:
     assert found == pytest.approx(float(smallest_holding(np.array(x), np.array(z), q)), rel=1e-6)
     cx, cz = np.meshgrid(np.linspace(*PIN_X, 121), np.linspace(*PIN_Z, 101), indexing="ij")
     assert found <= 1.01 * float(smallest_holding(cx, cz, q).max())
+
+
+def test_ctrl_c_stops_the_workers_and_leaves_a_resumable_study(tmp_path: Path) -> None:
+    """``maniplab optimize`` on two processes, SIGINT while it evaluates: one line, status 130,
+    the finished evaluations cached; ``--resume`` computes only the others."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    (tmp_path / "slow.py").write_text("import time\n"
+                                      "def slow(spec, runs):\n"
+                                      "    time.sleep(0.1)\n"
+                                      "    return 0.0\n")
+    study = pin_study(tmp_path, budget=30, plugins={"slow": f"{tmp_path / 'slow.py'}:slow"},
+                      constraints=[{"metric": "slow", "max": 1.0}])
+    command = [sys.executable, "-m", "maniplab", "optimize", str(study), "-o",
+               str(tmp_path / "out"), "--processes", "2"]
+    job = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                           cwd=tmp_path)
+    cache = tmp_path / "out" / "cache"
+    deadline = time.monotonic() + 60
+    while len(list(cache.glob("*.json"))) < 6 and time.monotonic() < deadline:
+        time.sleep(0.05)
+    os.kill(job.pid, signal.SIGINT)
+    _, err = job.communicate(timeout=30)
+    assert job.returncode == 130 and err.strip().splitlines()[-1] == "maniplab optimize: interrupted"
+    stored = len(list(cache.glob("*.json")))
+    assert 6 <= stored < 30
+    resumed = optimize(study, out=tmp_path / "out", processes=1, resume=True, report=False,
+                       sensitivity=False)
+    assert resumed.computed == len(list(cache.glob("*.json"))) - stored
+    assert resumed.cached >= stored
