@@ -84,7 +84,8 @@ FMPy), and ``control``, ``control-pid`` and ``identify`` run on the arms of :dat
 
 FMPY_ARMS = ("arms/electrohydraulic", "arms/drill_boom")
 _CONTROL_ARMS = ("crane3", "planar2", "erector", "arms/drill_boom", "arms/electric2",
-                 "arms/electrohydraulic", "arms/pipe_handler", "arms/mixed/forestry_rotator")
+                 "arms/electrohydraulic", "arms/pipe_handler", "arms/mixed/forestry_rotator",
+                 "arms/grapple_crane")
 QUICK = {"control": _CONTROL_ARMS, "control-pid": (*_CONTROL_ARMS, "arms/excavator"),
          "identify": ("planar2", "arms/electrohydraulic")}
 
@@ -120,6 +121,10 @@ EXPECTED: dict[tuple[str, str], Expected] = {
     ("arms/electric2", "control-pid"): _HOLD,
     ("arms/mixed/forestry_grapple", "control"): _STRAIGHT,
     ("arms/mixed/forestry_grapple", "control-pid"): _STRAIGHT,
+    ("arms/grapple_crane", "control-pid"): Expected(
+        "refused", "the move missed its tolerances",
+        "the PID-only baseline's joint loops do not damp the hanging grapple's sway, which keeps "
+        "pulling the slew: 14 mm off after 15 time constants (the cascade meets 2 mm)"),
     ("arms/mixed/forestry_rotator", "control"): _STRAIGHT,
     ("arms/mixed/forestry_rotator", "control-pid"): _STRAIGHT,
 }
@@ -499,11 +504,15 @@ def cell_tune(arm: str, work: Path) -> str:
 
 def _control(arm: str, work: Path, *options: str, settle: float = 0.3,
              within: float = 2.1e-3) -> str:
-    """A move of a tenth of each joint's range (its end-effector) in 1.5 s: met within
-    ``within`` (m) of the target, ``settle`` s after the move, by the analytic model's forward
-    kinematics."""
+    """A move of a tenth of each joint's range (its end-effector; on an arm whose tool hangs on
+    passive joints, the point it hangs from) in 1.5 s: met within ``within`` (m) of the target,
+    ``settle`` s after the move, by the analytic model's forward kinematics."""
+    from maniplab.control.suspended import suspended
+
     spec = spec_of(arm)
-    target = ml.AnalyticModel(spec).fk(goal_pose(spec))[:3, 3]
+    chain = suspended(spec)
+    model = ml.AnalyticModel(chain)
+    target = model.fk(goal_pose(spec)[:chain.n])[:3, 3]
     out = cli("control", ARMS[arm], f"--start={numbers(start_pose(spec))}",
               "--target", numbers(target), "--duration", "1.5", "--settle", str(settle),
               "--sample-dt", "0.01", *options, "-o", str(work))
@@ -511,7 +520,7 @@ def _control(arm: str, work: Path, *options: str, settle: float = 0.3,
     assert table["health"]["verdict"] != "failed" and (work / "control.json").exists()
     run = ml.Run.load(work / "control.npz")
     assert np.all(np.isfinite(run.q))
-    miss = np.linalg.norm(ml.AnalyticModel(spec).fk(run.q[-1])[:3, 3] - target)
+    miss = np.linalg.norm(model.fk(run.q[-1][:chain.n])[:3, 3] - target)
     assert miss <= within, f"ends {miss * 1e3:.2f} mm off the target"
     return f"{miss * 1e3:.2f} mm"
 

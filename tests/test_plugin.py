@@ -134,7 +134,7 @@ def test_bad_plugin_parameters_name_file_joint_and_field(tmp_path, edit, field, 
                                    "MANIPLAB_PLUGINS=nosuchmodule.motors"]),
     ("plugins.dcmotor:Nothing", ["has no 'Nothing'"]),
     ("plugins.dcmotor:DCMotorParams", ["not a subclass of maniplab.actuators.ActuatorPlugin"]),
-    ("electrik", ["unknown actuator type 'electrik'", "'torque' or 'hydraulic'",
+    ("electrik", ["unknown actuator type 'electrik'", "'torque', 'hydraulic' or 'passive'",
                   "'module:Class'"]),
 ])
 def test_unknown_plugin_types_are_spec_errors(kind, words) -> None:

@@ -224,7 +224,7 @@ CASES = [
      ["unknown joint type 'rot'", "'R' or 'P'", "Tr"]),
     ("numeric-joint-type", "type: R", "type: 1", "q1", "type", 5, ["unknown joint type", "'R'"]),
     ("unknown-actuator", "type: hydraulic", "type: electric", "q1", "actuator.type", 13,
-     ["unknown actuator type 'electric'", "'torque' or 'hydraulic'"]),
+     ["unknown actuator type 'electric'", "'torque', 'hydraulic' or 'passive'"]),
     ("actuator-capitalised", "type: hydraulic", "type: Hydraulic", "q1", "actuator.type", 13,
      ["unknown actuator type", "did you mean 'hydraulic'"]),
     ("actuator-without-type", "      type: hydraulic\n", "", "q1", "actuator.type", 12,

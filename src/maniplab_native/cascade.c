@@ -108,11 +108,12 @@ static int layout(ml_cascade* c, const ml_cascade_config* config, double* pool) 
   g->leakage = keep(&k, g->leakage, n);
   g->pressure_kp = keep(&k, g->pressure_kp, n);
   g->pressure_ki = keep(&k, g->pressure_ki, n);
-  /* ml_chambers is 16 doubles (no padding): kept as doubles */
+  /* ml_chambers is all doubles (no padding): kept as doubles */
   g->chambers = (const ml_chambers*)keep(&k, (const double*)g->chambers,
                                          n * (int)(sizeof(ml_chambers) / sizeof(double)));
   g->geometry = keep(&k, g->geometry, 3 * n);
   g->prismatic = keep_ints(&k, g->prismatic, n);
+  g->weight = keep(&k, g->weight, 3);
   c->outer.integral = carve(&k, m);
   c->outer.rate = carve(&k, m);
   c->joint.integral = carve(&k, n);
@@ -433,6 +434,9 @@ static void cascade_mode(ml_cascade* c, const double* ref, const double* q, cons
     for (int j = 0; j < n; j++) sum += M[i * n + j] * qdd[j];
     row.tau[i] = sum + bias[i] + g->viscous[i] * qd[i];
     if (g->coulomb) row.tau[i] += g->coulomb[i] * tanh(sol[3 * i + 1] / g->stribeck[i]);
+    if (g->weight) {  /* a hanging tool's weight at the end effector (J's position rows) */
+      for (int r = 0; r < 3; r++) row.tau[i] -= c->J[r * n + i] * g->weight[r];
+    }
   }
   /* the drives */
   for (int j = 0; j < n; j++) {

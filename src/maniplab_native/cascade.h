@@ -14,7 +14,8 @@
       of J along qd, minus null_damping times the joint speed's null-space part on a redundant
       arm (with a planned joint path, the null space's part of w^2 (q_p - q) + D (qd_p - qd),
       w = D/2: the arm follows the path the planner checked instead of drifting onto a limit);
-      G1: tau = M qdd + C qd + G + Fv qd (+ Fc tanh(qd_ref / vs)), qd_ref = J+ twist_d;
+      G1: tau = M qdd + C qd + G + Fv qd (+ Fc tanh(qd_ref / vs)) (- J_p^T w, the weight w of
+      a tool hanging at the end effector), qd_ref = J+ twist_d;
       then each joint's drive: a valve's pressure loop and G2 (valve.h), a pinned cylinder's
       load-pressure loop and four-edge valve inversion (chambers.h), or a force source's
       clip(tau);
@@ -112,6 +113,10 @@ typedef struct {
                                    s^2 = K - 2 rho cos(q - phi)) or w^2, b, 0 (prismatic,
                                    s^2 = w^2 + (q + b)^2); or NULL likewise */
   const int* prismatic;         /* 1: the joint slides (n), or NULL likewise */
+  const double* weight;         /* the weight of a tool hanging at the end-effector point, N,
+                                   base axes (3): G1 holds it, -J_p^T weight, without its inertia
+                                   (a hanging tool swings free above its pendulum's frequency);
+                                   or NULL: none */
 } ml_cascade_config;
 
 /* The controller's log, one row per sample, in the caller's buffers (rows: capacity). */

@@ -211,6 +211,8 @@ class ActuatorPlugin(abc.ABC):
             not accounted), None (no hydraulic energy).
         lines: the hydraulic lines a run's hose-burst scenario can open (``("a", "b")`` for
             a two-chamber cylinder's; :mod:`maniplab.sim.bursts`); empty for none.
+        passive: True for a joint without an actuator (it swings freely): controllers leave
+            it alone and control the point it hangs from.
         variants: other models under the same ``type``, chosen by a key of the section.
         variant_key: the key that chooses this model among its type's variants (``cylinder``
             makes a ``hydraulic`` actuator the pinned two-chamber cylinder).
@@ -231,6 +233,7 @@ class ActuatorPlugin(abc.ABC):
     outputs: ClassVar[dict[str, str]] = {}
     energy: ClassVar[str | None] = None
     lines: ClassVar[tuple[str, ...]] = ()
+    passive: ClassVar[bool] = False
 
     def __init__(self, params: Any, joint: Joint) -> None:
         self.params = params

@@ -32,6 +32,7 @@ from typing import Any
 
 from maniplab.actuators.base import ActuatorPlugin
 from maniplab.actuators.hydraulic import HydraulicCylinder
+from maniplab.actuators.passive import Passive
 from maniplab.actuators.torque import TorqueSource
 from maniplab.errors import ManiplabError
 
@@ -41,7 +42,8 @@ ENTRY_POINT_GROUP = "maniplab.actuators"
 PLUGINS_VARIABLE = "MANIPLAB_PLUGINS"
 """Environment variable naming plugin modules to load, comma-separated."""
 
-BUILTIN: dict[str, type[ActuatorPlugin]] = {"torque": TorqueSource, "hydraulic": HydraulicCylinder}
+BUILTIN: dict[str, type[ActuatorPlugin]] = {"torque": TorqueSource, "hydraulic": HydraulicCylinder,
+                                             "passive": Passive}
 """The built-in actuator types by name."""
 
 IDEAL_SOURCE = "torque"

@@ -22,7 +22,10 @@ def add(sub: argparse._SubParsersAction) -> None:
         "control", help="run a point-to-point move under the cascade controller, print the table",
         description="Move the end-effector to TARGET with a minimum-jerk reference under the "
                     "feedback-linearised cascade controller (or the PID-only baseline), from "
-                    "rest with the pressures holding the arm; print the tracking table as JSON "
+                    "rest with the pressures holding the arm (on an arm whose tool hangs on "
+                    "passive joints: the point it hangs from, the tool hanging at rest at the "
+                    "start, its sway after the move in the table); print the tracking table as "
+                    "JSON "
                     "and write the run (.npz), the table (.json) and a plot (.png) to DIR. "
                     "The controller's gains and rate not given in the spec's control: section "
                     "are derived from the arm (see 'maniplab tune').",
@@ -51,6 +54,11 @@ def add(sub: argparse._SubParsersAction) -> None:
                          help="your own controller instead of --mode: a factory NAME(spec, move) "
                               "-> controller in an importable MODULE or in a FILE.py you name "
                               "(see 'Validate your own controller' in the docs)")
+    control.add_argument("--sway-damping", action="store_true",
+                         help="on an arm whose tool hangs on passive joints: shape the move (a "
+                              "ZVD input shaper at the tool's pendulum frequency) so that the "
+                              "tool is left without residual sway; the move is one pendulum "
+                              "period longer")
     control.add_argument("--settle", type=float, default=1.0, metavar="S",
                          help="time simulated after the move, s (default: 1)")
     control.add_argument("--sample-dt", type=positive_seconds, metavar="S", help=SAMPLE_DT_HELP)
@@ -85,12 +93,14 @@ def _cmd_control(args: argparse.Namespace) -> int:
     factory = load_factory(args.controller) if args.controller else None
     result = run_move(spec, target, start=start, duration=args.duration, mode=args.mode,
                       fit_mode=args.fit, settle=args.settle, sample_dt=args.sample_dt,
-                      controller=factory, tolerances=(final, rms))
+                      controller=factory, tolerances=(final, rms),
+                      sway_damping=args.sway_damping)
     note = result.plan.note()
     if note:
         print(f"maniplab control: {note}", file=sys.stderr)
     health = result.health
-    table = json.dumps({**result.metrics.to_dict(), "health": health.to_dict()}, indent=2)
+    sway = {"sway": [s.to_dict() for s in result.sway]} if result.sway else {}
+    table = json.dumps({**result.metrics.to_dict(), **sway, "health": health.to_dict()}, indent=2)
     args.output.mkdir(parents=True, exist_ok=True)
     result.run.save(args.output / "control.npz")
     write_text(args.output / "control.json", table + "\n")

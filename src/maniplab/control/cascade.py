@@ -124,7 +124,7 @@ class CascadeController:
                  gains: ControlSpec | None = None, mode: str = "cascade",
                  model: AnalyticModel | None = None,
                  joint_path: Callable[[float], tuple[np.ndarray, np.ndarray]] | None = None,
-                 **settings: Any) -> None:
+                 weight: np.ndarray | None = None, **settings: Any) -> None:
         if mode not in MODES:
             raise ControlError(f"unknown mode {mode!r}; expected 'cascade' or 'pid'")
         if settings:
@@ -132,6 +132,8 @@ class CascadeController:
         gains = resolve(spec, gains)
         self.spec, self.trajectory, self.gains, self.mode = spec, trajectory, gains, mode
         self.joint_path = joint_path
+        self.weight = weight
+        """The weight of a tool hanging at the end effector, N, base axes (3,), or None."""
         self.tolerances = TOLERANCES
         """(final, RMS) position error the run's health verdict allows, mm."""
         self.n = spec.n
@@ -153,7 +155,7 @@ class CascadeController:
         pick = lambda a, b: np.array([a] * 3 + [b] * 3)[:m]
         self.outer = PID(pick(pos.kp, ori.kp), pick(pos.ki, ori.ki), pick(pos.kd, ori.kd),
                          dt=self.dt, filter_time=g.derivative_filter)
-        self.g1 = InverseDynamics(self.model, coulomb=g.coulomb_feedforward)
+        self.g1 = InverseDynamics(self.model, coulomb=g.coulomb_feedforward, weight=self.weight)
         self.drives = _drives(self.actuators, dt=self.dt, settings=g)
         self.log_signals = {**LOG_SIGNALS, **{k: v for d in self.drives
                                                for k, v in d.signals.items()}}
@@ -194,7 +196,8 @@ class CascadeController:
         """A controller of the same settings with its own compiled state and log, reset; the
         analytic model (read-only) and the trajectory (frozen) are shared."""
         other = CascadeController(self.spec, self.trajectory, gains=self.gains, mode=self.mode,
-                                  model=self.model, joint_path=self.joint_path)
+                                  model=self.model, joint_path=self.joint_path,
+                                  weight=self.weight)
         other.tolerances = self.tolerances
         return other
 
@@ -202,7 +205,7 @@ class CascadeController:
         """Pickled as its settings: unpickled (in a worker process) it rebuilds its compiled
         state, and its analytic model from the model cache, reset."""
         return (_rebuild, (self.spec, self.trajectory, self.gains, self.mode, self.tolerances,
-                           self.joint_path))
+                           self.joint_path, self.weight))
 
     @property
     def reference(self) -> Trajectory:
@@ -412,10 +415,11 @@ Controller.register(CascadeController)
 
 
 def _rebuild(spec: ManipulatorSpec, trajectory: Trajectory, gains: ControlSpec, mode: str,
-             tolerances: tuple[float, float], joint_path: Any = None) -> CascadeController:
+             tolerances: tuple[float, float], joint_path: Any = None,
+             weight: np.ndarray | None = None) -> CascadeController:
     """A pickled :class:`CascadeController` back (``CascadeController.__reduce__``)."""
     controller = CascadeController(spec, trajectory, gains=gains, mode=mode,
-                                   joint_path=joint_path)
+                                   joint_path=joint_path, weight=weight)
     controller.tolerances = tolerances
     return controller
 

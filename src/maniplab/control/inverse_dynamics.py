@@ -1,6 +1,7 @@
 """G1: inverse dynamics from the analytic model.
 
-τ_d = M(q) q̈_d + C(q, q̇) q̇ + G(q) + Fv q̇ (+ optional Coulomb feed-forward); each joint's
+τ_d = M(q) q̈_d + C(q, q̇) q̇ + G(q) + Fv q̇ (+ optional Coulomb feed-forward, + a hanging
+tool's weight); each joint's
 actuator drive then turns τ_d into its command (e.g. ΔP_d = τ_d / A on a hydraulic joint, see
 :mod:`maniplab.actuators.hydraulic.drive`).
 """
@@ -21,10 +22,15 @@ class InverseDynamics:
         coulomb: add the Coulomb friction feed-forward Fc tanh(q̇_ref / v_s) (Fc and v_s, the
             Stribeck velocity, from the spec's hybrid/LuGre friction); default off, as in the
             paper's G1 (the cascade's setting ``coulomb_feedforward`` turns it on).
+        weight: the weight of a tool hanging at the end-effector point, N, base axes (3,):
+            held, -J_pᵀ weight, without its inertia (it swings free above its pendulum's
+            frequency; :mod:`~maniplab.control.suspended`); None: none.
     """
 
-    def __init__(self, model: AnalyticModel, *, coulomb: bool = False) -> None:
+    def __init__(self, model: AnalyticModel, *, coulomb: bool = False,
+                 weight: ArrayLike | None = None) -> None:
         self.model = model
+        self.weight = None if weight is None else np.asarray(weight, dtype=float).reshape(3)
         joints = model.spec.joints
         self.fv = np.array([j.friction.viscous for j in joints], dtype=float)
         has = np.array([j.friction.model.value != "none" for j in joints])
@@ -45,4 +51,6 @@ class InverseDynamics:
         if self.fc.any():
             v = np.asarray(qd if qd_ref is None else qd_ref, dtype=float)
             tau += self.fc * np.tanh(v / self.vs)
+        if self.weight is not None:
+            tau -= np.asarray(self.model.jacobian(q))[:3].T @ self.weight
         return tau

@@ -91,7 +91,8 @@ def tracking_metrics(run: Any, trajectory: Trajectory, *, label: str | None = No
     """Metrics of ``run`` (a ``ml.Run``) against ``trajectory``.
 
     Args:
-        run: the closed-loop run (signals ee_pos, q, dP, iv, ctrl).
+        run: the closed-loop run (signals ee_pos, q, dP, iv, ctrl; on an arm whose tool hangs
+            on passive joints, p_suspension, the point the move is of, instead of ee_pos).
         trajectory: the reference; its ``t0`` and ``duration`` define the move window.
         label: the case's name (default ``run.label``).
         orientation: measure the orientation error (default: when ``run.meta`` says the
@@ -104,7 +105,8 @@ def tracking_metrics(run: Any, trajectory: Trajectory, *, label: str | None = No
     for k, tk in enumerate(t):
         r = trajectory.sample(float(tk))
         ref_p[k], ref_R[k] = r.position, r.rotation
-    err = np.linalg.norm(run["ee_pos"] - ref_p, axis=1)
+    tracked = run["p_suspension"] if "p_suspension" in run else run["ee_pos"]
+    err = np.linalg.norm(tracked - ref_p, axis=1)
     t0, t1 = float(trajectory.t0), float(trajectory.t0 + trajectory.duration)
     inside = (t >= t0 - 1e-9) & (t <= t1 + 1e-9)
     if not inside.any():

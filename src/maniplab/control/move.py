@@ -11,9 +11,23 @@ from typing import Any
 import numpy as np
 
 from maniplab.control.cascade import CascadeController
+from maniplab.control.errors import ControlError
 from maniplab.control.interface import TOLERANCES
 from maniplab.control.metrics import TrackingMetrics, tracking_metrics
 from maniplab.control.point_to_point import MovePlan, plan_move
+from maniplab.control.shaping import ShapedMove, zvd
+from maniplab.control.suspended import (
+    HangingController,
+    Sway,
+    chain,
+    hanging,
+    hanging_weight,
+    passive_joints,
+    pendulum_frequency,
+    suspended,
+    sway,
+)
+from maniplab.control.trajectory import MinJerkMove
 from maniplab.model import AnalyticModel
 from maniplab.sim.health import Health
 from maniplab.sim.run import Run
@@ -33,11 +47,13 @@ class MoveResult:
         plan: the checked plan (the move, possibly stretched).
         run: the closed-loop run (the controller's log in it).
         metrics: how well it followed the move.
+        sway: each passive joint's sway after the move (none without passive joints).
     """
 
     plan: MovePlan
     run: Run
     metrics: TrackingMetrics
+    sway: tuple[Sway, ...] = ()
 
     @property
     def health(self) -> Health:
@@ -71,9 +87,11 @@ class MoveResult:
 
     def _farthest_joint(self) -> str:
         """The joint that ends farthest from its planned goal, relative to its range."""
-        q, goal = np.asarray(self.run.q)[-1], np.asarray(self.plan.q_goal)
-        lower = np.array([j.limits[0] if j.limits else -np.pi for j in self.run.spec.joints])
-        upper = np.array([j.limits[1] if j.limits else np.pi for j in self.run.spec.joints])
+        goal = np.asarray(self.plan.q_goal)  # the actuated joints' (a hanging tool's are free)
+        q = np.asarray(self.run.q)[-1][:len(goal)]
+        joints = self.run.spec.joints[:len(goal)]
+        lower = np.array([j.limits[0] if j.limits else -np.pi for j in joints])
+        upper = np.array([j.limits[1] if j.limits else np.pi for j in joints])
         off = np.abs(q - goal) / np.maximum(upper - lower, 1e-9)
         j = int(np.argmax(off))
         unit = "m" if self.run.spec.joints[j].type.value == "P" else "rad"
@@ -86,7 +104,7 @@ def run_move(spec: ManipulatorSpec, target: Sequence[float], *, start: Sequence[
              settle: float = 1.0, model: AnalyticModel | None = None,
              sample_dt: float | None = None, controller: ControllerFactory | None = None,
              tolerances: tuple[float, float] = TOLERANCES,
-             plant: ManipulatorSpec | None = None) -> MoveResult:
+             plant: ManipulatorSpec | None = None, sway_damping: bool = False) -> MoveResult:
     """Plan a move to ``target`` (:func:`~maniplab.control.point_to_point.plan_move`), run it
     from rest with the actuators holding the arm against gravity, and measure it.
 
@@ -109,22 +127,59 @@ def run_move(spec: ManipulatorSpec, target: Sequence[float], *, start: Sequence[
             them when the controller tracks the move (declares it as its ``reference``).
         plant: the arm simulated, when it differs from the one the move is planned and the
             controller built for (``spec``: the designer's estimate), e.g. a heavier payload.
+        sway_damping: shape the move so that the tool hanging on the arm's passive joints is
+            left without residual sway (a ZVD input shaper at its pendulum frequency,
+            :mod:`~maniplab.control.shaping`; the move is longer by one period).
+
+    On an arm whose tool hangs on passive joints (the last joints, ``type: passive``) the target
+    is the suspension point's: the move is planned and the controller built on the actuated
+    chain with the hanging mass at that point (:func:`~maniplab.control.suspended.suspended`),
+    the plant simulates the whole arm from rest with the tool hanging (the passive joints'
+    ``start`` values are replaced by that pose), and the result reports each passive joint's
+    sway after the move.
     """
-    model = model or AnalyticModel(spec)
-    plan = plan_move(spec, target, start=start, duration=duration, model=model, fit_mode=fit_mode)
-    if controller is None:
-        made: Any = CascadeController(spec, plan.move, mode=mode, task=plan.task, model=model,
+    arm = suspended(spec)  # the arm itself, or its actuated chain when a tool hangs from it
+    model = model if model is not None and model.spec == arm else AnalyticModel(arm)
+    actuated = None if start is None else list(start)[:arm.n] if arm is not spec else start
+    plan = plan_move(arm, target, start=actuated, duration=duration, model=model,
+                     fit_mode=fit_mode)
+    if sway_damping:
+        plan = _shaped(plan, spec)
+    if controller is None and arm is spec:
+        made: Any = CascadeController(arm, plan.move, mode=mode, task=plan.task, model=model,
                                       joint_path=plan.joint_reference)
         label = f"{mode}, {plan.task} task"
+    elif controller is None:  # the chain's inertia, the hanging tool's weight as a force
+        made = CascadeController(chain(spec), plan.move, mode=mode, task=plan.task,
+                                 joint_path=plan.joint_reference, weight=hanging_weight(spec))
+        label = f"{mode}, {plan.task} task"
     else:
-        made = _make(controller, spec, plan)
+        made = _make(controller, arm, plan)
         label = f"{_name(controller)}, {plan.task} task"
+    if arm is not spec:
+        made = HangingController(made, spec)
     if hasattr(made, "tolerances"):
         made.tolerances = tuple(float(x) for x in tolerances)
-    run = simulate(plant or spec, controller=made, duration=plan.move.t0 + plan.move.duration + settle,
-                   initial={"q": plan.q_start, "dP": "gravity"}, label=label,
-                   sample_dt=sample_dt)
-    return MoveResult(plan, run, tracking_metrics(run, plan.move, label=label, model=model))
+    q0 = hanging(spec, np.concatenate([plan.q_start, np.zeros(spec.n - arm.n)]))
+    end = plan.move.t0 + plan.move.duration
+    run = simulate(plant or spec, controller=made, duration=end + settle,
+                   initial={"q": q0, "dP": "gravity"}, label=label, sample_dt=sample_dt)
+    return MoveResult(plan, run, tracking_metrics(run, plan.move, label=label, model=model),
+                      tuple(sway(run, end)))
+
+
+def _shaped(plan: MovePlan, spec: ManipulatorSpec) -> MovePlan:
+    """The plan with its move shaped by a ZVD shaper (:mod:`~maniplab.control.shaping`) at the
+    hanging tool's pendulum frequency (the mean of its frequencies at the start and the goal)."""
+    n = spec.n - len(passive_joints(spec))
+    if n == spec.n:
+        raise ControlError(f"{spec.name} has no passive joints: there is no sway to damp")
+    tail = np.zeros(spec.n - n)
+    frequency = 0.5 * sum(pendulum_frequency(spec, hanging(spec, np.concatenate([q, tail])))
+                          for q in (plan.q_start, plan.q_goal))
+    move = plan.move
+    assert isinstance(move, MinJerkMove), "a plan's move is shaped once"
+    return dataclasses.replace(plan, move=ShapedMove(move, zvd(frequency)))
 
 
 def _make(factory: ControllerFactory, spec: ManipulatorSpec, plan: MovePlan) -> Any:

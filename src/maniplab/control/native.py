@@ -74,7 +74,7 @@ class Config(ctypes.Structure):
         ("leakage", c_void_p), ("pressure_kp", c_void_p), ("pressure_ki", c_void_p),
         ("min_root", c_double), ("rate_alpha", c_double), ("speed_gain", c_double),
         ("compressibility", c_int), ("chambers", c_void_p), ("geometry", c_void_p),
-        ("prismatic", c_void_p),
+        ("prismatic", c_void_p), ("weight", c_void_p),
     ]
 
 
@@ -234,7 +234,7 @@ class CompiledCascade:
             min_root=float(valves["min_root"]), rate_alpha=float(valves["rate_alpha"]),
             speed_gain=float(valves["speed_gain"]),
             compressibility=int(bool(valves["compressibility"])),
-            **_pinned(valves, kinds, keeper))
+            weight=keeper.optional(g1.weight), **_pinned(valves, kinds, keeper))
         address = _C().ml_cascade_new(ctypes.byref(config))
         if not address:
             raise ControlError("maniplab's compiled cascade could not be made (out of memory)")

@@ -11,6 +11,7 @@ import numpy as np
 from maniplab.control.errors import ControlError
 from maniplab.control.feasibility import MARGIN, Demand, JointPath, fit
 from maniplab.control.ik import bounds_of, solve
+from maniplab.control.shaping import ShapedMove
 from maniplab.control.trajectory import MinJerkMove, Pose
 from maniplab.model import AnalyticModel
 from maniplab.spec import ManipulatorSpec
@@ -40,7 +41,8 @@ class MovePlan:
     """A checked point-to-point move.
 
     Attributes:
-        move: the minimum-jerk move (its duration possibly stretched).
+        move: the minimum-jerk move (its duration possibly stretched; shaped to leave a hanging
+            tool without sway, :mod:`~maniplab.control.shaping`).
         task: "position" or "pose".
         q_start: the joint positions at the start, (n,).
         q_goal: the joint positions at the target (inverse kinematics within the limits), (n,).
@@ -49,7 +51,7 @@ class MovePlan:
         path: the joints along the move as the planner checked them (at unit duration).
     """
 
-    move: MinJerkMove
+    move: MinJerkMove | ShapedMove
     task: str
     q_start: np.ndarray
     q_goal: np.ndarray

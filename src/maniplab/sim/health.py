@@ -283,13 +283,15 @@ def _diverging(run: Run) -> list[Finding]:
 
 
 def tracking_errors(run: Run) -> tuple[float, float] | None:
-    """(final, RMS over the move) position error of the end-effector against the run's
-    reference ``p_ref``, mm; None for a run without a reference."""
+    """(final, RMS over the move) position error of the end-effector (of the suspension point,
+    ``p_suspension``, on an arm whose tool hangs on passive joints) against the run's reference
+    ``p_ref``, mm; None for a run without a reference."""
     reference = (run.meta or {}).get("reference")
-    if not reference or "p_ref" not in run or "ee_pos" not in run:
+    tracked = "p_suspension" if "p_suspension" in run else "ee_pos"
+    if not reference or "p_ref" not in run or tracked not in run:
         return None
     t = np.asarray(run.t)
-    error = 1e3 * np.linalg.norm(np.asarray(run["ee_pos"]) - np.asarray(run["p_ref"]), axis=1)
+    error = 1e3 * np.linalg.norm(np.asarray(run[tracked]) - np.asarray(run["p_ref"]), axis=1)
     inside = (t >= reference["t0"] - 1e-9) & (t <= reference["t1"] + 1e-9)
     rms = float(np.sqrt(np.mean(error[inside] ** 2))) if inside.any() else 0.0
     return float(error[-1]), rms
