@@ -3,6 +3,7 @@ Debian's headless chromium. Screenshots of each stage go to out/gui-screenshots/
 
 from __future__ import annotations
 
+import html
 import os
 import subprocess
 import sys
@@ -95,6 +96,20 @@ def test_headline_parameters_become_overrides_of_the_changed_values() -> None:
                    "joints.q2.friction.viscous": 1234.0}
     every = headline_overrides(spec, "all joints", spec.end_effector.mass, 3e-12, None)
     assert set(every) == {f"joints.{j.name}.actuator.leakage" for j in spec.joints}
+
+
+def test_a_warnings_verdict_opens_in_the_runs_list(tmp_path: Path) -> None:
+    """Issue 37: a run with warnings lists its findings (each once) under its summary."""
+    from maniplab.gui.runs import run_summary
+
+    space = Workspace(tmp_path / "ws")
+    run = ml.simulate("crane3", inputs={"luff": 50.0}, duration=1.0, initial={"dP": "gravity"})
+    assert run.health.verdict == "warnings"
+    space.save_run(run, "hard")
+    shown = run_summary(space, "hard")
+    assert "health warnings" in shown and "<details class='ml-health'>" in shown
+    for line in run.health.lines():
+        assert shown.count(html.escape(line)) == 1
 
 
 @pytest.mark.parametrize("spec", _specs(), ids=lambda s: s.name)
@@ -455,10 +470,11 @@ def test_the_page_says_its_state_next_to_the_control(tmp_path: Path) -> None:
             web.click(driver, "Show the ticked runs")
             web.wait(lambda: app.watch.replay is not None, "the replay")
             arm = app.configure.arm3d
-            assert arm is not None and not any(h.visible for _, h in arm._meshes)
+            assert arm is not None
+            web.wait(lambda: not any(h.visible for _, h in arm._meshes), "the arm hidden")
             web.tab(driver, "Configure")
-            web.wait(lambda: app.watch.replay is None, "the replay taken away")
-            assert all(h.visible for _, h in arm._meshes)
+            web.wait(lambda: app.watch.replay is None and all(h.visible for _, h in arm._meshes),
+                     "the replay taken away, the arm shown")
             assert app.simulate.gizmo is not None and not app.simulate.gizmo.visible
             web.wait(lambda: _saturated(web.shot(driver, "state-3-back")) > 600, "the arm")
     finally:
@@ -509,8 +525,7 @@ def test_every_number_on_the_page_carries_its_unit(tmp_path: Path) -> None:
                 if app.spec.name != arm:
                     app.set_spec(ml.builtin_spec(arm))
                 for joint in [j.name for j in app.spec.joints]:
-                    app.configure.joint.value = joint
-                    app.configure._rebuild_fields()
+                    app.configure.joint.value = joint  # its callback shows the joint's fields
                     rows = web.wait(lambda j=joint: _fields_of(driver, j), f"the fields of {joint}")
                     for label, value, kind in rows:
                         if kind in ("text", "number", None) and value and _numeric(value):
@@ -534,9 +549,8 @@ def test_every_number_on_the_page_carries_its_unit(tmp_path: Path) -> None:
             # bar: shown and typed in bar, stored in Pa
             app.set_spec(ml.builtin_spec("erector"))
             web.tab(driver, "Configure")
-            app.configure.unit_choice["pressure"].value = "bar"
-            app.configure.joint.value = "q1"
-            app.configure._rebuild_fields()
+            app.configure.unit_choice["pressure"].value = "bar"  # its callback rebuilds
+            web.wait(lambda: _fields_of(driver, "q1"), "the fields of q1")
             pa = app.spec.joint("q1").actuator.supply_pressure
             supply = web.field(driver, "Supply pressure [bar]")
             assert float(supply.get_attribute("value")) == pytest.approx(pa / 1e5)
@@ -683,7 +697,9 @@ def test_the_camera_frames_the_arm_and_pinned_cylinders_are_drawn(tmp_path: Path
                 web.text_shown(driver, "hydraulic")
                 web.wait(lambda: app.server.get_clients(), "the page connected")
                 _close_toasts(driver)
-                time.sleep(1.0)  # the camera's first pose applied
+                web.wait(lambda: np.allclose(next(iter(app.server.get_clients().values()))
+                                             .camera.position, app.server.initial_camera.position,
+                                             atol=1e-6), "the page's camera at its first pose")
                 project = _projector(driver, app)
                 left, top, w, h, window = project.rect
                 assert left + w < window - 200  # the panel beside the view, not over it

@@ -143,12 +143,13 @@ class Gui:
     def _busy(self, busy: bool) -> None:
         """A job started (True) or ended: Stop enabled (red) only while one runs, the buttons that
         start jobs disabled meanwhile."""
-        self.stop_button.visible = busy
-        self.stop_idle.visible = not busy
+        # in this order, so that a page showing Stop (or the idle stand-in) shows the rest too
         for button in self.job_buttons:
             button.disabled = busy
         if not busy:
             self.progress.visible = False
+        (self.stop_idle if busy else self.stop_button).visible = False
+        (self.stop_button if busy else self.stop_idle).visible = True
 
     def _switched(self, tab: str) -> None:
         """The page shows ``tab``: the other tabs' messages cleared, each tab its own scene (the

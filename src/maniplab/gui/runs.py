@@ -62,6 +62,11 @@ def run_summary(workspace: Any, name: str) -> str:
         details = (f"<details class='ml-move'><summary>move to [{html.escape(target)}] m{stretched}"
                    f"</summary><table style='font-size:11px'>{cells}</table>"
                    f"<ul style='margin:0;padding-left:1.2em'>{notes}</ul></details>")
+    findings = list(dict.fromkeys(run.health.lines()))
+    if findings and not isinstance(move, dict):  # a move lists them in its record
+        items = "".join(f"<li>{html.escape(x)}</li>" for x in findings)
+        details += (f"<details class='ml-health'><summary>{len(findings)} finding(s)</summary>"
+                    f"<ul style='margin:0;padding-left:1.2em'>{items}</ul></details>")
     return (f"<div class='ml-run' data-run='{html.escape(name, quote=True)}' "
             f"style='font-size:11px;margin:-6px 0 6px 2.2em;color:#555'>{html.escape(line)}"
             f"{details}</div>")
