@@ -82,3 +82,15 @@ def test_lowering_oscillation_plots_each_ratio_and_refuses_a_joint_without_a_val
                              "telescope", "--command", "-0.1"],
                             capture_output=True, text=True, timeout=120, check=False)
     assert result.returncode == 2 and "no counterbalance valve" in result.stderr
+
+
+def test_sway_damping_compares_a_move_with_and_without(tmp_path: Path) -> None:
+    crane = str(Path(__file__).parent / "arms" / "grapple_crane.yaml")
+    out = run("sway_damping.py", crane, "--start=0,-0.3,1.2,0,0", "--goal", "0.3,-0.3,1.2",
+              "--duration", "2", "--settle", "1", "-o", str(tmp_path / "sway.png"))
+    assert "without:" in out and "with sway damping:" in out
+    assert iio.imread(tmp_path / "sway.png").shape[1] >= 700
+    result = subprocess.run([sys.executable, str(EXAMPLES / "sway_damping.py"), "planar2",
+                             "--start=0,0", "--goal", "0.1,0.1"],
+                            capture_output=True, text=True, timeout=120, check=False)
+    assert result.returncode == 2 and "no passive joints" in result.stderr

@@ -549,11 +549,14 @@ def cell_control_pid(arm: str, work: Path) -> str:
 
 
 def cell_loadchart(arm: str, work: Path) -> str:
-    """Every pose's reach and height are its end-effector's by the analytic model."""
+    """Every pose's reach and height are its end-effector's by the analytic model (on an arm
+    whose tool hangs on passive joints, its actuated chain's, at the suspension point)."""
+    from maniplab.control.suspended import suspended
+
     path = work / "chart.json"
     cli("loadchart", ARMS[arm], "--points", "3", "-o", str(path))
     chart = json.loads(path.read_text())
-    spec = spec_of(arm)
+    spec = suspended(spec_of(arm))
     analytic = ml.AnalyticModel(spec)
     up = -np.asarray(spec.gravity) / np.linalg.norm(spec.gravity)
     assert chart["poses"]

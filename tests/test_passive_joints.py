@@ -133,7 +133,7 @@ def test_the_tool_hangs_where_its_gravity_torques_vanish() -> None:
 def test_the_zvd_shaper_has_its_closed_form() -> None:
     """Undamped: impulses 1/4, 1/2, 1/4 at 0, T/2 and T; damped (ζ = 0.1): (1, 2K, K²)/(1+K)²
     with K = exp(-ζπ/sqrt(1-ζ²)) at the damped period's halves."""
-    flat = lambda impulses: [x for pair in impulses for x in pair]  # noqa: E731
+    flat = lambda impulses: [x for pair in impulses for x in pair]
     assert flat(zvd(2.0)) == pytest.approx([0.0, 0.25, math.pi / 2, 0.5, math.pi, 0.25])
     k = math.exp(-0.1 * math.pi / math.sqrt(0.99))
     period = 2 * math.pi / (2.0 * math.sqrt(0.99))
@@ -175,3 +175,16 @@ def test_a_passive_joint_inside_the_chain_is_refused_in_one_line() -> None:
     with pytest.raises(ControlError, match="joint boom is passive") as err:
         run_move(spec, [4.0, 0.0, 2.0], start=None, duration=3.0)
     assert "\n" not in str(err.value)
+
+
+def test_the_load_chart_rates_a_hanging_tool_at_its_suspension_point() -> None:
+    """The grapple crane's chart is its actuated chain's at the suspension point, less the
+    hanging links' 64 kg: the same payloads as a chart of that chain with the links counted as
+    its own (a rigid 64 kg body at the point), at the same poses."""
+    spec = ml.load_spec(GRAPPLE)
+    chart = ml.load_chart(spec, points=4)
+    chain = suspended(spec)
+    rigid = ml.load_chart(chain, points=4)  # its payload includes the links' 64 kg
+    np.testing.assert_allclose(chart.q, rigid.q)
+    np.testing.assert_allclose(chart.payload, np.maximum(rigid.payload - 64.0, 0.0), rtol=1e-12)
+    assert chart.spec.name == spec.name and chart.q.shape[1] == 3

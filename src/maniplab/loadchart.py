@@ -220,7 +220,7 @@ def load_chart(spec: SpecLike, *, points: int | None = None, max_poses: int = MA
         LoadChartError: the arm has no gravity, an actuator declares no holding range, or a bad
             rating, safety or stability factor or slope.
     """
-    spec = resolve_spec(spec)
+    spec, links = _suspension(resolve_spec(spec))
     if rating is not None and not (math.isfinite(rating) and rating > 0.0):
         raise LoadChartError(f"rating {rating!r}: a working pressure is a positive number of "
                              "pascals")
@@ -248,11 +248,26 @@ def load_chart(spec: SpecLike, *, points: int | None = None, max_poses: int = MA
     shape = tuple(1 if j in idle else counts[j] for j in range(spec.n))
     rated = [statics.rate(q) for q in poses]
     return LoadChart(spec, poses, np.array([r.position for r in rated]),
-                     np.array([r.payload for r in rated]),
+                     np.maximum(np.array([r.payload for r in rated]) - links, 0.0),
                      np.array([r.joint for r in rated], dtype=int),
                      np.asarray(spec.gravity, dtype=float), rating, safety,
                      np.array([r.cause for r in rated], dtype=str),
                      np.array([r.edge for r in rated], dtype=int), stability, slope, shape, slews)
+
+
+def _suspension(spec: ManipulatorSpec) -> tuple[ManipulatorSpec, float]:
+    """The arm a chart rates, and the mass its payload carries besides the payload, kg: on an
+    arm whose tool hangs on passive joints, the actuated chain rated at the suspension point
+    (the hanging tool's weight acts there at rest) and the passive links' mass (the tool's own,
+    which the payload the chart gives excludes); the arm itself and 0 otherwise."""
+    from maniplab.control.suspended import suspended
+
+    chain = suspended(spec)
+    if chain is spec:
+        return spec, 0.0
+    links = chain.end_effector.mass - spec.end_effector.mass
+    return chain.with_overrides({"end_effector.mass": spec.end_effector.mass,
+                                 "name": spec.name}), links
 
 
 @dataclasses.dataclass(frozen=True)

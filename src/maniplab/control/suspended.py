@@ -107,35 +107,44 @@ def _first(value: object, n: int, keep: int) -> object:
     return value
 
 
-def _model(spec: ManipulatorSpec) -> tuple[mujoco.MjModel, mujoco.MjData]:
+@functools.lru_cache(maxsize=16)
+def _compiled(spec: ManipulatorSpec) -> mujoco.MjModel:
     from maniplab.mjcf_gen import build_model
 
-    model = build_model(spec)
-    return model, mujoco.MjData(model)
+    return build_model(spec)
 
 
-def hanging(spec: ManipulatorSpec, q: np.ndarray) -> np.ndarray:
+def hanging(spec: ManipulatorSpec, q: np.ndarray, guess: np.ndarray | None = None) -> np.ndarray:
     """``q`` (n,) with the passive joints at the pose the tool hangs in at rest (the least
-    potential energy within their limits), the actuated joints as given."""
+    potential energy within their limits), the actuated joints as given; ``guess``: the passive
+    joints' pose to start the search from (a nearby solution: one search instead of three)."""
     q = np.asarray(q, dtype=float).copy()
     passive = passive_joints(spec)
     if not passive:
         return q
-    model, data = _model(spec)
+    model = _compiled(spec)
+    data = mujoco.MjData(model)
     g = np.asarray(spec.gravity, dtype=float)
     bounds = [spec.joints[j].limits or (-math.pi, math.pi) for j in passive]
+    torque = np.zeros(model.nv)
 
-    def energy(x: np.ndarray) -> float:
+    def energy(x: np.ndarray) -> tuple[float, np.ndarray]:
+        """The potential energy, J, and its gradient, the gravity torques (MuJoCo's bias
+        forces at rest), N·m."""
         data.qpos[:] = q
         data.qpos[passive] = x
-        mujoco.mj_kinematics(model, data)
-        return float(-np.sum(model.body_mass[:, None] * data.xipos * g))
+        mujoco.mj_fwdPosition(model, data)
+        mujoco.mj_rne(model, data, 0, torque)
+        return (float(-np.sum(model.body_mass[:, None] * data.xipos * g)),
+                torque[model.jnt_dofadr[passive]].copy())
 
     best = None
-    for guess in (np.zeros(len(passive)), *(np.full(len(passive), s) for s in (-1.5, 1.5))):
-        x0 = np.clip(guess, [b[0] for b in bounds], [b[1] for b in bounds])
-        found = minimize(energy, x0, method="L-BFGS-B", bounds=bounds,
-                         options={"ftol": 1e-15, "gtol": 1e-12})
+    starts = ([np.asarray(guess, dtype=float)] if guess is not None else
+              [np.zeros(len(passive)), *(np.full(len(passive), s) for s in (-1.5, 1.5))])
+    for start in starts:
+        x0 = np.clip(start, [b[0] for b in bounds], [b[1] for b in bounds])
+        found = minimize(energy, x0, jac=True, method="L-BFGS-B", bounds=bounds,
+                         options={"ftol": 1e-15, "gtol": 1e-10})
         if best is None or found.fun < best.fun - 1e-9:
             best = found
     assert best is not None
@@ -171,8 +180,9 @@ class Sway:
     Attributes:
         joint: its name.
         amplitude: the largest deviation from its hanging pose after the move's end, rad.
-        settling: the time after the move's end until it stays within :data:`SETTLED` of
-            its hanging pose, s (inf: not within the run).
+        settling: the time after the move's end from which it stays within :data:`SETTLED`
+            of its hanging pose, s (inf: not within the run, or not for a whole pendulum period
+            before the run ends).
     """
 
     joint: str
@@ -187,25 +197,24 @@ class Sway:
 
 def sway(run: Run, end: float) -> list[Sway]:
     """Each passive joint's sway in ``run`` after the time ``end`` (the move's end, s): its
-    deviation from the pose it hangs in at the run's last actuated pose."""
+    deviation from the pose it hangs in at the run's last actuated pose (settled from the
+    last sample outside :data:`SETTLED`, when the run goes on for a pendulum period after it)."""
     spec = run.spec
     passive = passive_joints(spec)
     if not passive:
         return []
     t, q = np.asarray(run.t, dtype=float), np.asarray(run.q, dtype=float)
     rest = hanging(spec, q[-1])
+    period = 2.0 * math.pi / max(pendulum_frequency(spec, rest), 1e-9)
     after = t >= end
     out = []
     for j in passive:
         deviation = np.abs(q[after, j] - rest[j])
         amplitude = float(deviation.max()) if deviation.size else 0.0
         outside = np.flatnonzero(deviation > SETTLED)
-        if not outside.size:
-            settling = 0.0
-        elif outside[-1] == deviation.size - 1:
+        settling = 0.0 if not outside.size else float(t[after][outside[-1]] - end)
+        if outside.size and t[-1] - (end + settling) < period:  # a swing's crossing, not rest
             settling = math.inf
-        else:
-            settling = float(t[after][outside[-1] + 1] - end)
         out.append(Sway(spec.joint_names[j], amplitude, settling))
     return out
 
