@@ -324,7 +324,11 @@ def move_lines(move: dict[str, Any]) -> list[str]:
     else:
         lines.append(f"move ran in the {move['asked_duration']:g} s asked")
     findings = move["findings"]
-    lines.append(f"health {move['verdict']}" + (f": {findings[0]}" if findings else ""))
+    verdict = str(move["verdict"])
+    first = findings[0] if findings else ""
+    if first.startswith("warning: ") and verdict == "warnings":  # said once: 'health warnings'
+        first = first.removeprefix("warning: ")
+    lines.append(f"health {verdict}" + (f": {first}" if findings else ""))
     lines.extend(findings[1:])
     missed = move["missed"]
     if missed is None:
