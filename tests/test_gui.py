@@ -719,3 +719,32 @@ def test_the_camera_frames_the_arm_and_pinned_cylinders_are_drawn(tmp_path: Path
     finally:
         app.close()
 
+
+
+def test_runs_are_recorded_at_the_interval_asked(tmp_path: Path) -> None:
+    """Issue 37, storage: 'Record every [s]' stores the run at that interval (a tenth of the
+    samples and about a tenth of the file at 0.01 s against every 1 ms step); an interval that is
+    not a positive number is refused under the inputs, nothing run."""
+    app = Gui(ml.builtin_spec("planar2"), tmp_path / "ws", port=_port())
+    try:
+        sim = app.simulate
+        sim.inputs["q1"].value = "step:0.5@0.1"
+        sim.duration.value = 2.0
+        sim.run_open_loop()
+        assert "stored run 'run'" in _wait_idle(app)
+        sim.record.value = "0.01"
+        sim.run_open_loop()
+        assert "stored run 'run-2'" in _wait_idle(app)
+        every, sparse = (app.workspace.load_run(n) for n in ("run", "run-2"))
+        np.testing.assert_allclose(np.diff(sparse.t), 0.01, rtol=1e-9)
+        assert len(every.t) == 2001 and len(sparse.t) == 201
+        # the same motion at the shared instants, a tenth of the samples
+        np.testing.assert_allclose(sparse.q, every.q[::10], atol=1e-12)
+        size = {n: app.workspace.run_path(n).stat().st_size for n in ("run", "run-2")}
+        assert size["run-2"] < 0.2 * size["run"], size
+        sim.record.value = "-1"
+        sim.run_open_loop()
+        assert "not a positive interval" in str(sim.input_error.content)
+        assert app.workspace.runs() == ["run", "run-2"]
+    finally:
+        app.close()

@@ -108,6 +108,10 @@ class SimulateTab:
                                       "there too")
             self.duration = gui.add_number("Duration [s]", 2.0, min=0.001, max=MAX_DURATION)
             self.dt = gui.add_number("Time step [s]", 1e-3, min=1e-6, max=0.1, step=1e-4)
+            self.record = gui.add_text(
+                "Record every [s]", "", hint="the run's sample interval, a multiple of the time "
+                "step (blank: every step, at most 1000 samples per second); a longer interval "
+                "stores a smaller run file. Runs and moves")
         self.run_button = gui.add_button("Run", color="green")
         self.run_button.on_click(lambda _: self.run_open_loop())
         self.run_note = Note(gui)
@@ -176,6 +180,7 @@ class SimulateTab:
             run_spec = spec.with_overrides(overrides) if overrides else spec
             name = self._free_name(self.name.value)
             start = self._start(spec)
+            sample_dt = self._sample_dt()
         except ManiplabError as exc:
             self._fail(str(exc))
             return
@@ -187,7 +192,7 @@ class SimulateTab:
             from maniplab.sim.simulate import simulate
 
             return simulate(run_spec, inputs=inputs, duration=duration, dt=dt,
-                            initial=initial, label=name, progress=False)
+                            initial=initial, label=name, progress=False, sample_dt=sample_dt)
 
         self.app.jobs.start(f"simulating {spec.name}", work, lambda run: self._store(run, name),
                             self.run_note)
@@ -204,6 +209,13 @@ class SimulateTab:
 
         text = self.start.value.strip()
         return list(parse_numbers(text, "start pose", (spec.n,))) if text else None
+
+    def _sample_dt(self) -> float | None:
+        """The recording interval typed, s (None: blank, the default)."""
+        value = _number(self.record.value, "record every")
+        if value is not None and not value > 0.0:
+            raise ManiplabError(f"record every: {value:g} s is not a positive interval")
+        return value
 
     def _free_name(self, name: str) -> str:
         """``name`` checked before a run: it, or the ``-2``... it would be stored under, is a
@@ -254,6 +266,7 @@ class SimulateTab:
         try:
             name = self._free_name(f"{self.name.value}-{mode}")
             start = self._start(spec)
+            sample_dt = self._sample_dt()
         except ManiplabError as exc:
             self.verdict.content = warning(exc)
             return
@@ -279,7 +292,8 @@ class SimulateTab:
         self.app.jobs.start(f"{mode} move of {spec.name}",
                             lambda: run_move(spec, target, start=start, duration=duration,
                                              mode="cascade" if factory else mode,
-                                             controller=factory, fit_mode=fit), done, say)
+                                             controller=factory, fit_mode=fit,
+                                             sample_dt=sample_dt), done, say)
 
 
 FITS = ("stretch it", "refuse it")
