@@ -683,6 +683,20 @@ def test_the_camera_frames_the_arm_and_pinned_cylinders_are_drawn(tmp_path: Path
         lo, hi = arm.bounds()
         corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
                             for z in (lo[2], hi[2])])
+        # joints named at their axes: MuJoCo's joint anchors of ml.build_model at the pose shown
+        from maniplab.gui.configure import home
+
+        model = ml.build_model(spec)
+        data = mujoco.MjData(model)
+        data.qpos[:] = home(spec)
+        mujoco.mj_forward(model, data)
+        assert [label.text for label in arm.labels] == list(spec.joint_names)
+        for name, label in zip(spec.joint_names, arm.labels):
+            joint = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)
+            np.testing.assert_allclose(label.position, data.xanchor[joint], atol=1e-9)
+        key = str(app.configure.key.content)
+        assert all(n in key for n in spec.joint_names) and "cylinder barrel" in key
+        assert "grid cells" in key
         # the lift cylinder's pin line, from MuJoCo's tendon through its pins at the pose shown
         view = arm.view
         first = view.data.ten_wrapadr[0]

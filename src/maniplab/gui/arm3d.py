@@ -63,10 +63,11 @@ class Arm3D:
         prefix: scene-tree name of the arm, e.g. ``"/arm"``.
         spec: the arm.
         tint: draw the arm as a translucent ghost of this colour (joint states still shown).
+        labels: name each joint in the scene, at its axis (MuJoCo's joint anchor).
     """
 
     def __init__(self, scene: Any, prefix: str, spec: ManipulatorSpec,
-                 tint: palette.RGBA | None = None) -> None:
+                 tint: palette.RGBA | None = None, labels: bool = False) -> None:
         self.view = ArmView(spec)
         self.prefix, self.tint = prefix, tint
         model = self.view.model
@@ -107,6 +108,11 @@ class Arm3D:
                 flat_shading=False, cast_shadow=False, receive_shadow=False)
                 for part, colour in (("barrel", BARREL), ("rod", ROD))]
             self.cylinders.append((k, cylinder, *parts))
+        self._joint_ids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)
+                           for name in spec.joint_names]
+        self.labels = [scene.add_label(f"{prefix}/labels/{name}", text=name, font_screen_scale=0.8,
+                                       anchor="bottom-left")
+                       for name in spec.joint_names] if labels else []
         drawn = {k for k, *_ in self.cylinders}
         if model.ntendon > len(drawn):  # a tendon that is no pinned cylinder: a line
             self._tendons = scene.add_line_segments(
@@ -136,6 +142,8 @@ class Arm3D:
             if colour != self._colours[geom]:
                 handle.color = colour
                 self._colours[geom] = colour
+        for j, label in enumerate(self.labels):
+            label.position = view.data.xanchor[self._joint_ids[j]].copy()
         segments = _tendon_segments(view.model, view.data)
         if self._tendons is not None:
             self._tendons.points = segments
@@ -166,6 +174,8 @@ class Arm3D:
             handle.visible = visible
         for _, _, barrel, rod in self.cylinders:
             barrel.visible = rod.visible = visible
+        for label in self.labels:
+            label.visible = visible
         if self._tendons is not None:
             self._tendons.visible = visible
 
@@ -176,6 +186,8 @@ class Arm3D:
         for _, _, barrel, rod in self.cylinders:
             barrel.remove()
             rod.remove()
+        for label in self.labels:
+            label.remove()
         if self._tendons is not None:
             self._tendons.remove()
 

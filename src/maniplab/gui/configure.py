@@ -129,6 +129,7 @@ class ConfigureTab:
         gui.add_button("Start from this built-in").on_click(lambda _: self.load_builtin())
         self.builtin_note = Note(gui)
         self.table = gui.add_html("")
+        self.key = gui.add_html("")
         with gui.add_folder("Units", expand_by_default=False):
             self.unit_choice = {quantity: gui.add_dropdown(
                 f"{quantity.capitalize()} in", tuple(u for u, _ in options))
@@ -217,9 +218,10 @@ class ConfigureTab:
         server = self.app.server
         if self.arm3d is not None:
             self.arm3d.remove()
-        self.arm3d = Arm3D(server.scene, "/arm", spec)
+        self.arm3d = Arm3D(server.scene, "/arm", spec, labels=True)
         self.arm3d.pose(home(spec))
-        stage(server, [spec], self.arm3d.bounds())
+        cell = stage(server, [spec], self.arm3d.bounds())
+        self.key.content = scene_key(spec, cell)
 
     def _rebuild_fields(self) -> None:
         for field in self.joint_fields:
@@ -441,6 +443,25 @@ def joint_table(spec: ManipulatorSpec, units: Units | None = None) -> str:
                f"{_v(spec.gravity)} m/s²</p>")
     return (f"{style}<div style='overflow-x:auto'><table class='ml-joints' id='ml-joints'>"
             f"{header}{body}</table></div>{payload}")
+
+
+def scene_key(spec: ManipulatorSpec, cell: float) -> str:
+    """What the 3D view's colours and marks mean, as HTML: the links' colours by joint, the
+    cylinders', the joint states', the axes and the grid's scale."""
+    from maniplab.gui.arm3d import BARREL, ROD
+    from maniplab.viz import palette
+
+    def swatch(rgba: Any, text: str) -> str:
+        r, g, b = palette.to_uint8(tuple(float(c) for c in rgba[:4]))  # type: ignore[arg-type]
+        return f"<span style='color:rgb({r},{g},{b})'>■</span> {html.escape(text)}"
+
+    links = [swatch(palette.link_colour(j), joint.name) for j, joint in enumerate(spec.joints)
+             if joint.body is not None]
+    marks = [swatch(BARREL, "cylinder barrel"), swatch(ROD, "rod"),
+             swatch(palette.STICK, "joint sticking"), swatch(palette.LIMIT, "at a limit")]
+    return ("<div id='ml-key' style='font-size:11px;line-height:1.5'>3D: links "
+            + " ".join(links) + "; " + " ".join(marks)
+            + f"; axes at the origin x red, y green, z blue; grid cells {number(cell)} m</div>")
 
 
 def _rod(joint: Any) -> str:

@@ -130,11 +130,12 @@ than viser's 75)."""
 
 
 def stage(server: Any, specs: Sequence[ManipulatorSpec],
-          box: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+          box: tuple[np.ndarray, np.ndarray] | None = None) -> float:
     """The up direction (against gravity), floor grid and initial camera of a scene showing arms
     ``specs`` (sized to the longest): the camera looks from the front right, above, at the middle
     of ``box`` (the arms' lowest and highest points, m) from where the box's enclosing sphere
-    fills the view's height (without a box: at the middle of the reach)."""
+    fills the view's height (without a box: at the middle of the reach). The world's axes are
+    drawn at the origin (x red, y green, z blue). Returns the grid's cell size, m."""
     first = specs[0] if specs else None
     up = up_axis(first) if first else 2
     sign = -np.sign(first.gravity[up]) if first and first.gravity[up] else 1.0
@@ -144,8 +145,11 @@ def stage(server: Any, specs: Sequence[ManipulatorSpec],
     length = max((reach(spec) for spec in specs), default=5.0)
     size = 2.0 * math.ceil(length * 1.2)
     plane = {0: "yz", 1: "xz", 2: "xy"}[up]
+    cell = max(size / 40.0, 0.1)
     server.scene.add_grid("/floor", width=size, height=size, plane=plane,
-                          cell_size=max(size / 40.0, 0.1), section_size=max(size / 8.0, 0.5))
+                          cell_size=cell, section_size=max(size / 8.0, 0.5))
+    server.scene.add_frame("/axes", axes_length=max(0.1 * length, 0.2),
+                           axes_radius=max(0.004 * length, 0.005))
     along = axes[0] if up != 0 else axes[1]
     side = np.cross(upward, along)
     direction = 0.4 * along - 0.85 * side + 0.5 * upward
@@ -162,6 +166,7 @@ def stage(server: Any, specs: Sequence[ManipulatorSpec],
     server.initial_camera.look_at = tuple(middle)
     server.initial_camera.position = tuple(middle + distance * direction)
     server.initial_camera.up = tuple(upward)
+    return cell
 
 
 @contextlib.contextmanager
