@@ -762,3 +762,36 @@ def test_runs_are_recorded_at_the_interval_asked(tmp_path: Path) -> None:
         assert app.workspace.runs() == ["run", "run-2"]
     finally:
         app.close()
+
+
+def test_a_replay_sends_only_what_moved() -> None:
+    """Issue 37, speed: posing the arm again at the same pose sends the page nothing, and moving
+    only the last joint sends only the poses downstream of it (a replay's frames are what the
+    page's player spends its time on)."""
+    from maniplab.gui.configure import home
+    from maniplab.gui.replay import recording_server
+
+    spec = ml.builtin_spec("patu655")
+    with recording_server() as server:
+        arm = Arm3D(server.scene, "/arm", spec)
+        q = home(spec)
+        arm.pose(q)
+        recorder = server.get_scene_serializer()  # the scene as it is, then what is sent
+        scene = len(recorder._messages)
+        arm.pose(q)
+        assert len(recorder._messages) == scene
+        moved = q.copy()
+        moved[-1] += 0.1  # the tilt: the tip's link and the tilt cylinder move
+        arm.pose(moved)
+        sent = len(recorder._messages) - scene
+        arm.pose(q + 0.1)  # every joint: everything moves
+        every = len(recorder._messages) - scene - sent
+        assert 0 < sent < 0.7 * every, (sent, every)
+        # and what was sent is where MuJoCo puts it
+        model = ml.build_model(spec)
+        data = mujoco.MjData(model)
+        data.qpos[:] = q + 0.1
+        mujoco.mj_forward(model, data)
+        for geom, handle in arm._meshes:
+            reference = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, model.geom(geom).name)
+            np.testing.assert_allclose(handle.position, data.geom_xpos[reference], atol=1e-9)

@@ -75,6 +75,7 @@ class Arm3D:
         self._meshes: list[tuple[int, Any]] = []
         self._colours: dict[int, tuple[int, int, int]] = {}
         self._surfaces: dict[int, np.ndarray] = {}  # vertices in each geom's frame, m
+        self._placed: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # handle -> pose sent
         rest = np.full(spec.n, int(FrictionMode.SLIP))
         for geom in range(model.ngeom):
             surface = geom_mesh(model, geom)
@@ -136,8 +137,7 @@ class Arm3D:
         quat = np.empty(4)
         for geom, handle in self._meshes:
             mujoco.mju_mat2Quat(quat, view.data.geom_xmat[geom])
-            handle.position = view.data.geom_xpos[geom].copy()
-            handle.wxyz = quat.copy()
+            self._place(handle, view.data.geom_xpos[geom], quat)
             colour = self._colour(geom, modes)
             if colour != self._colours[geom]:
                 handle.color = colour
@@ -148,8 +148,23 @@ class Arm3D:
         if self._tendons is not None:
             self._tendons.points = segments
         for k, cylinder, barrel, rod in self.cylinders:
-            for handle, placed in zip((barrel, rod), cylinder_parts(segments[k], cylinder)):
-                handle.position, handle.wxyz, handle.scale = placed
+            for handle, (start, wxyz, scale) in zip((barrel, rod),
+                                                    cylinder_parts(segments[k], cylinder)):
+                if self._place(handle, start, wxyz):
+                    handle.scale = scale
+
+    def _place(self, handle: Any, position: np.ndarray, wxyz: np.ndarray) -> bool:
+        """Move ``handle`` to ``position`` and ``wxyz`` when it is not there already (a replay
+        sends only what moved: a frame's updates are what the page's player spends its time on);
+        returns whether it moved."""
+        position, wxyz = np.array(position, dtype=float), np.array(wxyz, dtype=float)
+        last = self._placed.get(id(handle))
+        if last is not None and np.array_equal(last[0], position) and \
+                np.array_equal(last[1], wxyz):
+            return False
+        handle.position, handle.wxyz = position, wxyz
+        self._placed[id(handle)] = (position, wxyz)
+        return True
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """The arm's box in the current pose (every vertex drawn, the floor left out): lowest and
