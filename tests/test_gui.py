@@ -795,3 +795,29 @@ def test_a_replay_sends_only_what_moved() -> None:
         for geom, handle in arm._meshes:
             reference = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, model.geom(geom).name)
             np.testing.assert_allclose(handle.position, data.geom_xpos[reference], atol=1e-9)
+
+
+def test_an_edit_that_changes_nothing_drawn_keeps_the_3d_arm(tmp_path: Path) -> None:
+    """Issue 37, speed: editing a mass or a valve poses the arm drawn again (no mesh rebuilt for
+    the page); editing a length draws it anew, where MuJoCo puts the longer body."""
+    app = Gui(ml.builtin_spec("patu655"), tmp_path / "ws", port=_port())
+    try:
+        tab = app.configure
+        first = tab.arm3d
+        assert first is not None
+        app.set_spec(app.spec.with_overrides({"joints.lift.body.mass": 300.0,
+                                              "joints.tilt.actuator.leakage": 2e-13}))
+        assert tab.arm3d is first and first.view.spec.joint("lift").body.mass == 300.0
+        app.set_spec(app.spec.with_overrides({"joints.lift.body.length": 3.5}))
+        assert tab.arm3d is not first and tab.arm3d is not None
+        model = ml.build_model(app.spec)
+        data = mujoco.MjData(model)
+        from maniplab.gui.configure import home
+
+        data.qpos[:] = home(app.spec)
+        mujoco.mj_forward(model, data)
+        for geom, handle in tab.arm3d._meshes:
+            reference = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, model.geom(geom).name)
+            np.testing.assert_allclose(handle.position, data.geom_xpos[reference], atol=1e-9)
+    finally:
+        app.close()

@@ -64,11 +64,13 @@ class Arm3D:
         spec: the arm.
         tint: draw the arm as a translucent ghost of this colour (joint states still shown).
         labels: name each joint in the scene, at its axis (MuJoCo's joint anchor).
+        view: the arm's :class:`ArmView`, when made already.
     """
 
     def __init__(self, scene: Any, prefix: str, spec: ManipulatorSpec,
-                 tint: palette.RGBA | None = None, labels: bool = False) -> None:
-        self.view = ArmView(spec)
+                 tint: palette.RGBA | None = None, labels: bool = False,
+                 view: ArmView | None = None) -> None:
+        self.view = view if view is not None else ArmView(spec)
         self.prefix, self.tint = prefix, tint
         model = self.view.model
         opacity = palette.GHOST_ALPHA if tint is not None else 1.0
@@ -205,6 +207,20 @@ class Arm3D:
             label.remove()
         if self._tendons is not None:
             self._tendons.remove()
+
+
+def looks(view: ArmView) -> bytes:
+    """What an arm's drawing depends on: its geoms (type, size, place, colour, material), bodies,
+    joints, tendons' sites and its cylinders' dimensions. Two arms that look the same have the
+    same bytes (an edit of a mass or a valve changes nothing drawn)."""
+    model, spec = view.model, view.spec
+    parts = [model.geom_type, model.geom_size, model.geom_pos, model.geom_quat, model.geom_rgba,
+             model.geom_matid, model.geom_bodyid, model.geom_dataid, model.mat_rgba,
+             model.body_pos, model.body_quat, model.body_parentid, model.jnt_type,
+             model.jnt_axis, model.jnt_pos, model.site_pos, model.wrap_objid, model.mesh_vert]
+    cylinders = repr([(j.name, getattr(j.actuator, "cylinder", None)) for j in spec.joints])
+    return b"".join(np.ascontiguousarray(p).tobytes() for p in parts) + cylinders.encode() + \
+        repr(list(spec.joint_names)).encode()
 
 
 def cylinder_parts(segment: np.ndarray, cylinder: Any) -> list[tuple[np.ndarray, np.ndarray,

@@ -16,12 +16,13 @@ import numpy as np
 
 from maniplab.builtin import builtin_spec, builtin_specs
 from maniplab.errors import ManiplabError, SpecError
-from maniplab.gui.arm3d import Arm3D
+from maniplab.gui.arm3d import Arm3D, looks
 from maniplab.gui.replay import stage
 from maniplab.gui.text import Note, warning
 from maniplab.gui.units import CHOICES, ENUMS, FIELDS, Units, describe, number, shown, si
 from maniplab.spec import ManipulatorSpec
 from maniplab.spec.yaml_io import dump_yaml, parse_yaml
+from maniplab.viz.arm import ArmView
 
 if TYPE_CHECKING:
     from maniplab.gui.app import Gui
@@ -177,6 +178,7 @@ class ConfigureTab:
             app.job_buttons.append(model_button)
             self.save_note = Note(gui)
         self.arm3d: Arm3D | None = None
+        self._looks = b""  # what the arm drawn looks like (arm3d.looks)
         app.on_spec(self.refresh)
         self.refresh()
 
@@ -214,11 +216,20 @@ class ConfigureTab:
         return [*JOINT_FIELDS, *_leaves(joint, "actuator"), *_leaves(joint, "friction")]
 
     def _draw(self) -> None:
+        """Show the arm in 3D: redrawn when it looks different, else only posed again (an edit
+        of a mass or a valve sends the page nothing to rebuild)."""
         spec = self.app.spec
         server = self.app.server
+        view = ArmView(spec)
+        drawn = looks(view)
+        if self.arm3d is not None and drawn == self._looks:
+            self.arm3d.view = view
+            self.arm3d.pose(home(spec))
+            return
         if self.arm3d is not None:
             self.arm3d.remove()
-        self.arm3d = Arm3D(server.scene, "/arm", spec, labels=True)
+        self._looks = drawn
+        self.arm3d = Arm3D(server.scene, "/arm", spec, labels=True, view=view)
         self.arm3d.pose(home(spec))
         cell = stage(server, [spec], self.arm3d.bounds())
         self.key.content = scene_key(spec, cell)
