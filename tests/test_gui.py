@@ -476,6 +476,7 @@ def test_the_page_says_its_state_next_to_the_control(tmp_path: Path) -> None:
             web.wait(lambda: app.watch.replay is None and all(h.visible for _, h in arm._meshes),
                      "the replay taken away, the arm shown")
             assert app.simulate.gizmo is not None and not app.simulate.gizmo.visible
+            assert "/target/name" in app.server.scene._handle_from_node_name  # its label
             web.wait(lambda: _saturated(web.shot(driver, "state-3-back")) > 600, "the arm")
     finally:
         app.close()
@@ -548,6 +549,8 @@ def test_every_number_on_the_page_carries_its_unit(tmp_path: Path) -> None:
 
             # bar: shown and typed in bar, stored in Pa
             app.set_spec(ml.builtin_spec("erector"))
+            table = str(app.configure.table.content)  # limits in deg (revolute) or m (q4)
+            assert "[-200.5, 200.5] deg" in table and "[-0.25, 0.25] m" in table
             web.tab(driver, "Configure")
             app.configure.unit_choice["pressure"].value = "bar"  # its callback rebuilds
             web.wait(lambda: _fields_of(driver, "q1"), "the fields of q1")

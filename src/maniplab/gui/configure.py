@@ -421,8 +421,9 @@ def joint_table(spec: ManipulatorSpec, units: Units | None = None) -> str:
     def limits(joint: Any) -> str:
         if not joint.limits:
             return "none"
-        per = radians if joint.type.value == "R" else metres
-        return _v([x / per for x in joint.limits])
+        revolute = joint.type.value == "R"
+        per = radians if revolute else metres
+        return f"{_v([x / per for x in joint.limits])} {angle if revolute else length}"
 
     rows: list[tuple[str, Any]] = [
         ("type", lambda j: "R" if j.type.value == "R" else "Tr"),

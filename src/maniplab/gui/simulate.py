@@ -248,6 +248,8 @@ class SimulateTab:
                 "/target", scale=0.6, disable_rotations=True, position=position,
                 visible=self.app.tab == "Simulate")
             self.gizmo.on_update(lambda _: self._from_gizmo())
+            self.app.server.scene.add_label("/target/name", text="move target",
+                                            font_screen_scale=0.8, anchor="bottom-left")
         elif not np.allclose(self.gizmo.position, position):
             self.gizmo.position = position
 
