@@ -117,7 +117,8 @@ def _random_inputs(plant: ml.Plant, seed: int) -> dict[int, ml.sim.signals.Signa
     rng = np.random.default_rng(seed)
     out = {}
     for j, actuator in enumerate(plant.actuators):
-        limit = float(getattr(actuator, "command_limit", 1.0))
+        limit = getattr(actuator, "command_limit", None)  # None: a passive joint's, ignored
+        limit = 1.0 if limit is None else float(limit)
         out[j] = ml.signals.sine(0.6 * limit * rng.uniform(0.3, 1.0), rng.uniform(0.2, 0.7),
                                  rng.uniform(0.0, 6.0))
     return out

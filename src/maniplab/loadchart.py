@@ -260,11 +260,11 @@ def _suspension(spec: ManipulatorSpec) -> tuple[ManipulatorSpec, float]:
     arm whose tool hangs on passive joints, the actuated chain rated at the suspension point
     (the hanging tool's weight acts there at rest) and the passive links' mass (the tool's own,
     which the payload the chart gives excludes); the arm itself and 0 otherwise."""
-    from maniplab.control.suspended import suspended
+    from maniplab.control.suspended import passive_joints, suspended
 
-    chain = suspended(spec)
-    if chain is spec:
+    if not passive_joints(spec):
         return spec, 0.0
+    chain = suspended(spec)
     links = chain.end_effector.mass - spec.end_effector.mass
     return chain.with_overrides({"end_effector.mass": spec.end_effector.mass,
                                  "name": spec.name}), links

@@ -138,14 +138,15 @@ def run_move(spec: ManipulatorSpec, target: Sequence[float], *, start: Sequence[
     ``start`` values are replaced by that pose), and the result reports each passive joint's
     sway after the move.
     """
-    arm = suspended(spec)  # the arm itself, or its actuated chain when a tool hangs from it
+    hangs = bool(passive_joints(spec))  # a tool hangs from the arm's actuated chain
+    arm = suspended(spec)  # that chain, or the arm itself
     model = model if model is not None and model.spec == arm else AnalyticModel(arm)
-    actuated = None if start is None else list(start)[:arm.n] if arm is not spec else start
+    actuated = None if start is None else list(start)[:arm.n] if hangs else start
     plan = plan_move(arm, target, start=actuated, duration=duration, model=model,
                      fit_mode=fit_mode)
     if sway_damping:
         plan = _shaped(plan, spec)
-    if controller is None and arm is spec:
+    if controller is None and not hangs:
         made: Any = CascadeController(arm, plan.move, mode=mode, task=plan.task, model=model,
                                       joint_path=plan.joint_reference)
         label = f"{mode}, {plan.task} task"
@@ -156,7 +157,7 @@ def run_move(spec: ManipulatorSpec, target: Sequence[float], *, start: Sequence[
     else:
         made = _make(controller, arm, plan)
         label = f"{_name(controller)}, {plan.task} task"
-    if arm is not spec:
+    if hangs:
         made = HangingController(made, spec)
     if hasattr(made, "tolerances"):
         made.tolerances = tuple(float(x) for x in tolerances)

@@ -62,14 +62,16 @@ def hanging_count(spec: ManipulatorSpec) -> int:
     return count
 
 
-@functools.lru_cache(maxsize=32)
 def suspended(spec: ManipulatorSpec) -> ManipulatorSpec:
     """The arm a controller drives: its actuated joints, and as payload at the suspension point
     the mass of everything that hangs from it (the passive joints' bodies and the end
-    effector). The arm itself when no joint is passive."""
+    effector). The arm itself (the same object) when no joint is passive."""
+    return _suspended(spec) if hanging_count(spec) else spec
+
+
+@functools.lru_cache(maxsize=32)
+def _suspended(spec: ManipulatorSpec) -> ManipulatorSpec:
     count = hanging_count(spec)
-    if not count:
-        return spec
     hanging = spec.joints[spec.n - count:]
     mass = sum(j.body.mass for j in hanging if j.body is not None) + spec.end_effector.mass
     data = spec.to_dict()
@@ -85,16 +87,14 @@ def chain(spec: ManipulatorSpec) -> ManipulatorSpec:
     """The actuated chain without what hangs from it (no payload at the suspension point): the
     arm whose inertia a controller inverts, the hanging tool's weight added as a force
     (:func:`hanging_weight`). The arm itself when no joint is passive."""
-    arm = suspended(spec)
-    if arm is spec:
+    if not passive_joints(spec):
         return spec
-    return arm.with_overrides({"end_effector.mass": 0.0})
+    return suspended(spec).with_overrides({"end_effector.mass": 0.0})
 
 
 def hanging_weight(spec: ManipulatorSpec) -> np.ndarray:
     """The weight of everything that hangs from the suspension point, N, base axes, (3,)."""
-    arm = suspended(spec)
-    mass = arm.end_effector.mass if arm is not spec else 0.0
+    mass = suspended(spec).end_effector.mass if passive_joints(spec) else 0.0
     return mass * np.asarray(spec.gravity, dtype=float)
 
 
