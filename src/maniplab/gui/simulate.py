@@ -144,7 +144,7 @@ class SimulateTab:
                 handle.remove()
             with self.input_folder:
                 self.inputs = {n: self.app.server.gui.add_text(
-                    f"{n} [{_input_unit(j)}]", "", hint="e.g. step:0.5@0.1 or "
+                    _input_label(n, j), "", hint="e.g. step:0.5@0.1 or "
                     "sine:0.1,2@0.5+ramp:1,2; blank: no input") for n, j in zip(names, spec.joints)}
             self.term_joint.options = names
             self.target_joint.options = [ALL, *names]
@@ -357,15 +357,27 @@ def move_lines(move: dict[str, Any]) -> list[str]:
     return lines
 
 
+def _input_label(name: str, joint: Any) -> str:
+    """A joint's input field's label: its name and its command's unit in brackets (the name
+    alone when the command has no unit)."""
+    unit = _input_unit(joint)
+    return f"{name} [{unit}]" if unit else name
+
+
 def _input_unit(joint: Any) -> str:
-    """The unit of a joint's input: a valve current for a hydraulic actuator, else a torque or
-    a force."""
-    kind = str(getattr(getattr(joint.actuator, "type", None), "value",
-                       getattr(joint.actuator, "type", "")))
-    if "hydraulic" in kind or hasattr(joint.actuator, "cylinder"):
-        valve = getattr(joint.actuator, "valve", None)
-        return str(getattr(valve, "command_unit", "A") or "A")
-    return "N·m" if joint.type.value == "R" else "N"
+    """The unit of a joint's input, as its actuator declares it (a valve's command unit, a
+    force source's N or N·m by the joint's kind; none for a passive joint or a plugin that
+    declares none)."""
+    from maniplab.spec import model_of
+
+    try:
+        unit = str(model_of(joint).command_unit)
+    except ManiplabError:  # a stored run's plugin that is not loaded
+        return ""
+    if "|" in unit:  # "N | N·m": a force on a prismatic joint, a torque on a rotational one
+        force, torque = (part.strip() for part in unit.split("|", 1))
+        return torque if joint.type.value == "R" else force
+    return unit
 
 
 def _number(text: str, what: str) -> float | None:
