@@ -16,7 +16,7 @@ import argparse
 import warnings
 from pathlib import Path
 
-from bench_stiff_step import ACCURACY_WINDOW, OPEN_LOOP, cpu, deviation, open_loop
+from bench_pump_step import at_its_step
 
 import maniplab as ml
 from maniplab.mjcf_gen import accuracy
@@ -63,13 +63,7 @@ def main() -> None:
         base = ml.resolve_spec(CRANE if arm.startswith("knuckle") else arm)
         for what, overrides in cases:
             spec = accuracy.smooth(base.with_overrides(overrides) if overrides else base)
-            dt = ml.Plant(spec).dt
-            names = ["q", "qd", *ml.Plant(spec).state_names]
-            error, signal = deviation(open_loop(spec, dt, dt, ACCURACY_WINDOW),
-                                      open_loop(spec, dt / 100.0, dt, ACCURACY_WINDOW), names)
-            seconds = cpu(args.repeat, open_loop, spec, dt, dt, OPEN_LOOP)
-            print(f"| {arm} | {what} | {dt * 1e3:g} ms | {OPEN_LOOP / seconds:.0f}× | "
-                  f"{error:.1e} ({signal}) |", flush=True)
+            print(f"| {arm} | {what} | {at_its_step(spec, args.repeat)} |", flush=True)
 
 
 if __name__ == "__main__":
