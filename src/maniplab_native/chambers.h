@@ -489,9 +489,9 @@ enum { ML_E_PUMP, ML_E_METER_IN, ML_E_COMPENSATOR, ML_E_METER_OUT, ML_E_LEAKAGE,
    at `distance` (m) from the end the piston moves towards: its power (p - Pt) Q split into
    powers[] by the drops of the orifices in series (each Q^2 over its gain squared: shares
    1/edge^2, t^2 for the cushion's throttle 1/t and 1/(K_h z)^2 for the holding valve; a burst
-   line's spill to ML_E_BURST), and Pt Q to the tank. */
-static inline void ml_way_out_powers(const ml_chambers* c, int k, double p, double p_other,
-                                     double edge, double distance, double* powers) {
+   line's spill to ML_E_BURST), and Pt Q to the tank. Returns the oil leaving, Q, m^3/s. */
+static inline double ml_way_out_powers(const ml_chambers* c, int k, double p, double p_other,
+                                       double edge, double distance, double* powers) {
   double t = ml_cushion_throttle(c, distance);
   double out = ml_way_out(c, k, p, p_other, ml_cushioned(c, edge, distance), NULL);
   double power = (p - c->tank) * out;
@@ -499,36 +499,36 @@ static inline void ml_way_out_powers(const ml_chambers* c, int k, double p, doub
   if (c->hold_type[k] == ML_HOLD_NONE) {
     if (c->burst[k] != 0.0) {
       powers[ML_E_BURST] += power;
-      return;
+      return out;
     }
     double et2 = edge * edge * t * t;
     powers[ML_E_CUSHION] += power * et2 / (1.0 + et2);
     powers[ML_E_METER_OUT] += power / (1.0 + et2);
-    return;
+    return out;
   }
   if (c->burst[k] != 0.0) {
     powers[ML_E_HOLDING] += power;
-    return;
+    return out;
   }
   double slope[2], pilot = c->burst[1 - k] != 0.0 ? c->tank : p_other;
   double v = c->hold_gain[k] * ml_hold_opening(c, k, p, pilot, slope);
   double leak = edge > 0.0 ? c->hold_leakage[k] * (p - c->tank) : 0.0;
   double through = out - leak;  /* the metered oil; the seat's leakage is the valve's loss */
   powers[ML_E_HOLDING] += (p - c->tank) * leak;
-  if (!(edge > 0.0 && v > 0.0)) return;
+  if (!(edge > 0.0 && v > 0.0)) return out;
   double r_edge = 1.0 / (edge * edge), r_cushion = t * t, r_hold = 1.0 / (v * v);
   double share = (p - c->tank) * through / (r_edge + r_cushion + r_hold);
   powers[ML_E_METER_OUT] += share * r_edge;
   powers[ML_E_CUSHION] += share * r_cushion;
   powers[ML_E_HOLDING] += share * r_hold;
+  return out;
 }
 
 /* The powers (W) of the energy terms at one instant (the relief and anti-cavitation valves act
    at the bounds, ml_chambers_bound_energy), and the supply pressure: powers[ML_ACCUMULATED]. */
 static inline void ml_chambers_powers(const ml_chambers* c, double pa, double pb, double x,
                                       double s, double sdot, double* powers) {
-  double ps = ml_supply_seen(c, pa, pb, x), qa, qb, y = ml_travel(c, s);
-  ml_valve_edges_at(c, x, pa, pb, y, &qa, &qb);
+  double ps = ml_supply_seen(c, pa, pb, x), y = ml_travel(c, s);
   for (int k = 0; k < ML_ENERGIES; k++) powers[k] = 0.0;
   powers[ML_SUPPLY_TIME] = ps;
   /* the meter-in edge: its oil goes into the chamber, or spills from a burst line */
@@ -542,9 +542,13 @@ static inline void ml_chambers_powers(const ml_chambers* c, double pa, double pb
   if (c->burst[fed] != 0.0) {
     powers[ML_E_TANK] += c->tank * in;
   }
-  /* the ways out, each within its end cushion */
-  ml_way_out_powers(c, 0, pa, pb, c->out_a * (x < 0.0 ? -x : 0.0), y, powers);
-  ml_way_out_powers(c, 1, pb, pa, c->out_b * (x > 0.0 ? x : 0.0), c->stroke - y, powers);
+  /* the ways out, each within its end cushion; the chambers' flows (ml_valve_edges_at's) */
+  double into = c->burst[fed] != 0.0 ? 0.0 : in;
+  double qa = (fed == 0 ? into : 0.0) -
+              ml_way_out_powers(c, 0, pa, pb, c->out_a * (x < 0.0 ? -x : 0.0), y, powers);
+  double qb = (fed == 1 ? into : 0.0) -
+              ml_way_out_powers(c, 1, pb, pa, c->out_b * (x > 0.0 ? x : 0.0), c->stroke - y,
+                                powers);
   double leak = c->leakage * (pa - pb);
   powers[ML_E_LEAKAGE] = (pa - pb) * leak;
   powers[ML_E_COMPRESSION] = pa * (qa - c->area_a * sdot - leak) + pb * (qb + c->area_b * sdot + leak);
