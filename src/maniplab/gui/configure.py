@@ -460,8 +460,8 @@ def joint_table(spec: ManipulatorSpec, units: Units | None = None) -> str:
 def scene_key(spec: ManipulatorSpec, cell: float) -> str:
     """What the 3D view's colours and marks mean, as HTML: the links' colours by joint, the
     cylinders', the joint states', the axes and the grid's scale."""
-    from maniplab.gui.arm3d import BARREL, ROD
     from maniplab.viz import palette
+    from maniplab.viz.cylinders import BARREL, ROD
 
     def swatch(rgba: Any, text: str) -> str:
         r, g, b = palette.to_uint8(tuple(float(c) for c in rgba[:4]))  # type: ignore[arg-type]
