@@ -189,6 +189,12 @@ def test_stream_on_the_command_line(capsys, tmp_path: Path) -> None:
     assert run_cli(capsys, *argv, "--stream", "-o", str(tmp_path / "s.npz"))[0] == 0
     assert run_cli(capsys, *argv, "-o", str(tmp_path / "m.npz"))[0] == 0
     assert_same_arrays(ml.Run.load(tmp_path / "s.npz"), ml.Run.load(tmp_path / "m.npz"))
+    assert run_cli(capsys, *argv, "--compress", "-o", str(tmp_path / "c.npz"))[0] == 0
+    assert_same_arrays(ml.Run.load(tmp_path / "c.npz"), ml.Run.load(tmp_path / "m.npz"))
+    assert (tmp_path / "c.npz").stat().st_size < (tmp_path / "m.npz").stat().st_size
+    code, _, err = run_cli(capsys, *argv, "--stream", "--compress", "-o", str(tmp_path / "x.npz"))
+    assert code == 2 and "--compress and --stream" in err and err.count("\n") == 1
+    assert not (tmp_path / "x.npz").exists()
 
 
 def test_large_files_take_zip64_records(tmp_path: Path, monkeypatch) -> None:

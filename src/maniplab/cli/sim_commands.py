@@ -76,6 +76,9 @@ def _add_simulate(sub: argparse._SubParsersAction) -> None:
                    help="write the samples to the run file as the run goes, in chunks, instead "
                         "of keeping them in memory (for runs too long for the memory; the file "
                         "appears complete when the run ends)")
+    p.add_argument("--compress", action="store_true",
+                   help="deflate the run file's arrays (about 0.4 of the size; such a file is "
+                        "read whole, never memory-mapped; not with --stream)")
     p.add_argument("--supply", metavar="SIGNAL|FILE.csv",
                    help="a measured supply pressure, Pa, that every pinned cylinder's valve is "
                         "fed at instead of its pump's: a signal as for --input (e.g. 8e6+sine:"
@@ -212,8 +215,12 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     import numpy as np
 
     import maniplab as ml
+    from maniplab.errors import ManiplabError
     from maniplab.sim.grammar import parse_assignment
 
+    if args.stream and args.compress:
+        raise ManiplabError("--compress and --stream exclude each other: a streamed run is "
+                            "written in chunks as it goes")
     overrides = dict(parse_assignment(text) for text in args.set)
     spec = ml.resolve_spec(args.spec)
     start = time.perf_counter()
@@ -225,7 +232,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
                       bursts=args.burst)
     wall = time.perf_counter() - start
     if not args.stream:
-        run.save(args.output)
+        run.save(args.output, compress=args.compress)
     peak = max((_peak(_blocks(run, name, args.output if args.stream else None))
                 for name in ("dP", "pA", "pB") if name in run.signals), default=0.0)
     print(f"wrote {args.output}: {run.spec.name}, {run.t[-1]:g} s simulated in {wall:.2f} s "

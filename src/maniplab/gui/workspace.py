@@ -76,10 +76,10 @@ class Workspace:
         return Run.load(self.run_path(name))
 
     def save_run(self, run: Run, name: str) -> str:
-        """Store ``run`` under ``name`` (or ``name-2``, ``name-3``... when taken); returns the name
-        used."""
+        """Store ``run`` under ``name`` (or ``name-2``, ``name-3``... when taken), compressed;
+        returns the name used."""
         name = self.free_name(name)
-        run.save(self.path("runs", name, ".npz"))
+        run.save(self.path("runs", name, ".npz"), compress=True)
         return name
 
     def free_name(self, name: str) -> str:

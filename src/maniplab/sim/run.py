@@ -105,9 +105,10 @@ class Run:
         declared = {**UNITS, **(self.meta.get("units") or {})}
         return {k: str(declared[k]) for k in self.signals if k in declared}
 
-    def save(self, path: str | os.PathLike[str]) -> None:
-        """Write the run to ``path`` (.npz) atomically; :meth:`load` reads it back bit for bit."""
-        store.save(self, Path(path))
+    def save(self, path: str | os.PathLike[str], *, compress: bool = False) -> None:
+        """Write the run to ``path`` (.npz) atomically; :meth:`load` reads it back bit for bit.
+        ``compress``: deflate the arrays (about 0.4 of the size; read whole, not mapped)."""
+        store.save(self, Path(path), compress)
 
     @classmethod
     def load(cls, path: str | os.PathLike[str], *, mmap: bool = False) -> Run:
