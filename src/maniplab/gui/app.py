@@ -66,6 +66,7 @@ class Gui:
         self.lock = threading.RLock()  # callbacks come from viser's thread pool
         self._spec_listeners: list[Callable[[], None]] = []
         self._run_listeners: list[Callable[[], None]] = []
+        self._unit_listeners: list[Callable[[], None]] = []
         self.token = token or new_token()
         self.controllers = dict(controllers or {})
         self.said = "idle"
@@ -121,6 +122,16 @@ class Gui:
     def on_runs(self, listener: Callable[[], None]) -> None:
         """Call ``listener()`` after the stored runs change."""
         self._run_listeners.append(listener)
+
+    def on_units(self, listener: Callable[[], None]) -> None:
+        """Call ``listener()`` after the user chose other units (``configure.units``)."""
+        self._unit_listeners.append(listener)
+
+    def units_changed(self) -> None:
+        """Tell every tab that the units shown changed."""
+        with self.lock:
+            for listener in self._unit_listeners:
+                listener()
 
     def set_spec(self, spec: ManipulatorSpec) -> None:
         """Make ``spec`` (valid) the arm of every tab."""

@@ -253,6 +253,7 @@ class ConfigureTab:
     def _units_changed(self) -> None:
         """Show every field and the table in the units chosen."""
         self.units = Units(**{q: str(d.value) for q, d in self.unit_choice.items()})
+        self.app.units_changed()
         spec = self.app.spec
         self.table.content = joint_table(spec, self.units)
         data = spec.to_dict()

@@ -19,6 +19,7 @@ from maniplab.sim.grammar import parse_input
 
 if TYPE_CHECKING:
     from maniplab.gui.app import Gui
+    from maniplab.gui.units import Units
     from maniplab.sim.run import Run
     from maniplab.spec import ManipulatorSpec
 
@@ -102,7 +103,7 @@ class SimulateTab:
             self.leakage = gui.add_text("Leakage [m³/(s·Pa)]", "", hint="blank: the spec's")
             self.viscous = gui.add_text("Viscous friction [N·m·s/rad | N·s/m]", "",
                                         hint="blank: the spec's")
-            self.start = gui.add_text("Start pose q [rad | m]", "", hint="comma-separated, "
+            self.start = gui.add_text("Start pose q", "", hint="comma-separated, "
                                       "one per joint; blank: all 0 (within the limits). Open "
                                       "loop starts there held against gravity; a move starts "
                                       "there too")
@@ -117,7 +118,7 @@ class SimulateTab:
         self.run_note = Note(gui)
         app.job_buttons.append(self.run_button)
         with gui.add_folder("Closed loop"):
-            self.target = gui.add_vector3("Target x, y, z [m]", (0.0, 0.0, 0.0), step=0.01,
+            self.target = gui.add_vector3("Target x, y, z", (0.0, 0.0, 0.0), step=0.01,
                                           min=(-BIG,) * 3, max=(BIG,) * 3)
             self.move_duration = gui.add_number("Move duration [s]", 2.0, min=0.01,
                                                 max=MAX_DURATION)
@@ -132,7 +133,9 @@ class SimulateTab:
             self.verdict = gui.add_markdown("")
         self.gizmo: Any = None
         self.target.on_update(lambda _: self._place_gizmo())
+        self.units = app.configure.units
         app.on_spec(self.refresh)
+        app.on_units(self.units_changed)
         self.refresh()
 
     def refresh(self) -> None:
@@ -149,7 +152,30 @@ class SimulateTab:
             self.term_joint.options = names
             self.target_joint.options = [ALL, *names]
         self.payload.value = spec.end_effector.mass
+        self._label_units()
         self._reset_target()
+
+    def _label_units(self) -> None:
+        """The start pose's and the target's labels in the units shown."""
+        kinds = {_pose_unit(j, self.units)[0] for j in self.app.spec.joints}
+        self.start.label = f"Start pose q [{' | '.join(sorted(kinds))}]"
+        self.target.label = f"Target x, y, z [{self.units.length}]"
+
+    def units_changed(self) -> None:
+        """Show the start pose and the target in the units chosen in Configure (the values typed
+        stay the same pose and point)."""
+        spec = self.app.spec
+        try:
+            start = self._start(spec)
+        except ManiplabError:
+            start = None  # a pose that does not parse is left as typed
+        target = self._target()
+        self.units = self.app.configure.units
+        if start is not None:
+            self.start.value = ", ".join(f"{x:.6g}" for x in np.asarray(start) / _pose_scales(
+                spec, self.units))
+        self._label_units()
+        self.target.value = self._shown_point(target)
 
     def _label_numbers(self) -> None:
         first, second = KINDS[self.kind.value]
@@ -208,7 +234,10 @@ class SimulateTab:
         from maniplab.control.point_to_point import parse_numbers
 
         text = self.start.value.strip()
-        return list(parse_numbers(text, "start pose", (spec.n,))) if text else None
+        if not text:
+            return None
+        typed = np.asarray(parse_numbers(text, "start pose", (spec.n,)), dtype=float)
+        return [float(x) for x in typed * _pose_scales(spec, self.units)]
 
     def _sample_dt(self) -> float | None:
         """The recording interval typed, s (None: blank, the default)."""
@@ -238,11 +267,21 @@ class SimulateTab:
         """Put the target at the end-effector of the arm Configure shows (at its home pose)."""
         arm = self.app.configure.arm3d
         if arm is not None:
-            self.target.value = _rounded(arm.end_effector)
+            self.target.value = self._shown_point(arm.end_effector)
             self._place_gizmo()
 
+    def _target(self) -> np.ndarray:
+        """The target typed, m, shape (3,)."""
+        return np.asarray(self.target.value, dtype=float) * self.units.scale("length")[1]
+
+    def _shown_point(self, point: Any) -> tuple[float, float, float]:
+        """A point (m) in the length unit shown, to the millimetre."""
+        per = self.units.scale("length")[1]
+        x, y, z = (round(float(c) / per, 3 if per == 1.0 else 0) for c in _rounded(point))
+        return x, y, z
+
     def _place_gizmo(self) -> None:
-        position = np.asarray(self.target.value, dtype=float)
+        position = self._target()
         if self.gizmo is None:
             self.gizmo = self.app.server.scene.add_transform_controls(
                 "/target", scale=0.6, disable_rotations=True, position=position,
@@ -254,7 +293,7 @@ class SimulateTab:
             self.gizmo.position = position
 
     def _from_gizmo(self) -> None:
-        self.target.value = _rounded(self.gizmo.position)
+        self.target.value = self._shown_point(self.gizmo.position)
 
     def run_move(self) -> None:
         """Run the chosen controller (the cascade, the PID-only baseline, or one of yours) to the
@@ -262,7 +301,7 @@ class SimulateTab:
         and actual duration, whether the planner stretched it, controller, verdict)."""
         from maniplab.control.move import run_move
 
-        spec, target = self.app.spec, [float(x) for x in self.target.value]
+        spec, target = self.app.spec, [float(x) for x in self._target()]
         duration, mode = float(self.move_duration.value), self.mode.value
         fit = FIT_MODES[self.fit.value]
         try:
@@ -378,6 +417,18 @@ def _input_unit(joint: Any) -> str:
         force, torque = (part.strip() for part in unit.split("|", 1))
         return torque if joint.type.value == "R" else force
     return unit
+
+
+def _pose_unit(joint: Any, units: Units) -> tuple[str, float]:
+    """(unit shown, SI per unit) of a joint's position: deg or rad, m or mm."""
+    unit = units.of("position", joint.type.value == "R")
+    assert unit is not None  # a position is a number
+    return unit
+
+
+def _pose_scales(spec: ManipulatorSpec, units: Units) -> np.ndarray:
+    """SI per unit shown of each joint's position, shape (n,)."""
+    return np.array([_pose_unit(j, units)[1] for j in spec.joints])
 
 
 def _number(text: str, what: str) -> float | None:
