@@ -1,15 +1,17 @@
 """Runs replayed in 3D: the first run solid, the others as ghosts in their comparison colours, each
 joint coloured by its stick/slip/limit state, the end-effector paths traced.
 
-The same :class:`Replay` drives the GUI's Watch tab (frame by frame, from the timeline) and the
-self-contained HTML replays (:func:`replay_html`): viser records every scene update with its
-time, and its player (three.js, inlined in the page with the recording) plays them back with
-play, pause, a scrubbing slider and a speed control. The page needs no network and no server.
+:class:`Replay` drives the GUI's Watch tab (frame by frame, from the timeline). The
+self-contained HTML replays (:func:`replay_html`) have a player of their own
+(:mod:`maniplab.gui.player`: WebGL, every frame's poses computed by MuJoCo and inline), with
+play, pause, a scrubbing slider and a speed control; both frame the arms alike
+(:func:`framing`). The page needs no network and no server.
 """
 
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import io
 import math
 from collections.abc import Iterator, Sequence
@@ -129,27 +131,46 @@ FOV = 50.0
 than viser's 75)."""
 
 
-def stage(server: Any, specs: Sequence[ManipulatorSpec],
-          box: tuple[np.ndarray, np.ndarray] | None = None) -> float:
-    """The up direction (against gravity), floor grid and initial camera of a scene showing arms
-    ``specs`` (sized to the longest): the camera looks from the front right, above, at the middle
-    of ``box`` (the arms' lowest and highest points, m) from where the box's enclosing sphere
-    fills the view's height (without a box: at the middle of the reach). The world's axes are
-    drawn at the origin (x red, y green, z blue). Returns the grid's cell size, m."""
+@dataclasses.dataclass(frozen=True)
+class Framing:
+    """Where a scene of arms is looked at from, and its floor grid and axes.
+
+    Attributes:
+        up_axis: index (0, 1, 2) of the world axis closest to up.
+        up: the upward unit vector, shape (3,).
+        grid: the floor grid's width, m (square, centred at the origin).
+        cell: a grid cell, m.
+        section: a grid section (a heavier line), m.
+        axes_length, axes_radius: the world axes drawn at the origin, m.
+        look_at, position: the camera's target and position, m, each shape (3,).
+        fov: the camera's vertical field of view, degrees.
+    """
+
+    up_axis: int
+    up: np.ndarray
+    grid: float
+    cell: float
+    section: float
+    axes_length: float
+    axes_radius: float
+    look_at: np.ndarray
+    position: np.ndarray
+    fov: float = FOV
+
+
+def framing(specs: Sequence[ManipulatorSpec],
+            box: tuple[np.ndarray, np.ndarray] | None = None) -> Framing:
+    """The framing :func:`stage` sets up for arms ``specs`` (sized to the longest): the camera
+    looks from the front right, above, at the middle of ``box`` (the arms' lowest and highest
+    points, m) from where the box's enclosing sphere fills the view's height (without a box: at
+    the middle of the reach)."""
     first = specs[0] if specs else None
     up = up_axis(first) if first else 2
     sign = -np.sign(first.gravity[up]) if first and first.gravity[up] else 1.0
     axes = np.eye(3)
     upward = sign * axes[up]
-    server.scene.set_up_direction(tuple(upward))
     length = max((reach(spec) for spec in specs), default=5.0)
     size = 2.0 * math.ceil(length * 1.2)
-    plane = {0: "yz", 1: "xz", 2: "xy"}[up]
-    cell = max(size / 40.0, 0.1)
-    server.scene.add_grid("/floor", width=size, height=size, plane=plane,
-                          cell_size=cell, section_size=max(size / 8.0, 0.5))
-    server.scene.add_frame("/axes", axes_length=max(0.1 * length, 0.2),
-                           axes_radius=max(0.004 * length, 0.005))
     along = axes[0] if up != 0 else axes[1]
     side = np.cross(upward, along)
     direction = 0.4 * along - 0.85 * side + 0.5 * upward
@@ -162,11 +183,28 @@ def stage(server: Any, specs: Sequence[ManipulatorSpec],
         middle = 0.5 * (lo + hi)
         radius = max(0.5 * float(np.linalg.norm(hi - lo)), 0.2)
         distance = 1.08 * radius / math.sin(math.radians(FOV) / 2.0)
-    server.initial_camera.fov = math.radians(FOV)
-    server.initial_camera.look_at = tuple(middle)
-    server.initial_camera.position = tuple(middle + distance * direction)
-    server.initial_camera.up = tuple(upward)
-    return cell
+    return Framing(up_axis=up, up=upward, grid=size, cell=max(size / 40.0, 0.1),
+                   section=max(size / 8.0, 0.5), axes_length=max(0.1 * length, 0.2),
+                   axes_radius=max(0.004 * length, 0.005), look_at=middle,
+                   position=middle + distance * direction)
+
+
+def stage(server: Any, specs: Sequence[ManipulatorSpec],
+          box: tuple[np.ndarray, np.ndarray] | None = None) -> float:
+    """The up direction (against gravity), floor grid and initial camera of a scene showing arms
+    ``specs``, as :func:`framing` finds them. The world's axes are drawn at the origin (x red,
+    y green, z blue). Returns the grid's cell size, m."""
+    frame = framing(specs, box)
+    server.scene.set_up_direction(tuple(frame.up))
+    plane = {0: "yz", 1: "xz", 2: "xy"}[frame.up_axis]
+    server.scene.add_grid("/floor", width=frame.grid, height=frame.grid, plane=plane,
+                          cell_size=frame.cell, section_size=frame.section)
+    server.scene.add_frame("/axes", axes_length=frame.axes_length, axes_radius=frame.axes_radius)
+    server.initial_camera.fov = math.radians(frame.fov)
+    server.initial_camera.look_at = tuple(frame.look_at)
+    server.initial_camera.position = tuple(frame.position)
+    server.initial_camera.up = tuple(frame.up)
+    return frame.cell
 
 
 @contextlib.contextmanager
@@ -183,19 +221,20 @@ def recording_server() -> Iterator[Any]:
             server.stop()
 
 
-def replay_html(runs: Sequence[Run], fps: float = 30.0) -> str:
-    """A self-contained HTML page replaying ``runs`` (player, arms, paths and the recording inline;
-    it opens from a file, offline). ``fps`` as :class:`Replay` takes it."""
-    with recording_server() as server:
-        replay = Replay(server.scene, runs, fps)
-        stage(server, [run.spec for run in runs], replay.bounds())
-        recorder = server.get_scene_serializer()
-        for frame in range(1, replay.frames):
-            recorder.insert_sleep(1.0 / replay.fps)
-            replay.show(frame)
-        recorder.insert_sleep(1.0 / replay.fps)
-        html: str = recorder.as_html()
-        return html
+def replay_html(runs: Sequence[Run], fps: float = 30.0,
+                names: Sequence[str] | None = None) -> str:
+    """A self-contained HTML page replaying ``runs`` in 3D (:mod:`maniplab.gui.player`: our own
+    WebGL player, the arms posed by MuJoCo at every frame, all inline; it opens from a file,
+    offline): the first run solid, the others as ghosts, the end-effector paths traced; orbit,
+    zoom, play/pause (space bar), a time slider, a speed choice, a key naming each run, and the
+    joint under the pointer named. ``fps`` as :class:`Replay` takes it; ``names``: each run's name
+    (default: the runs' labels), with the parameters in which the runs differ added to it."""
+    from maniplab.gui.player import player_html
+    from maniplab.gui.runs import legend
+
+    labels = legend(list(runs), list(names) if names is not None else
+                    [run.label or f"run {k + 1}" for k, run in enumerate(runs)]) if runs else None
+    return player_html(runs, fps, labels)
 
 
 def _free_port() -> int:
