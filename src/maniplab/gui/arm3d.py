@@ -19,7 +19,7 @@ from maniplab.friction.modes import FrictionMode
 from maniplab.spec import ManipulatorSpec
 from maniplab.viz import palette
 from maniplab.viz.arm import ArmView
-from maniplab.viz.cylinders import BARREL, ROD, cylinder_parts
+from maniplab.viz.cylinders import BARREL, ROD, cylinder_parts, pinned_cylinders, tendon_segments
 
 _SEGMENTS = 24  # facets around a cylinder or capsule
 _TENDON_WIDTH = 0.08  # m
@@ -96,12 +96,7 @@ class Arm3D:
         unit.apply_translation((0.0, 0.0, 0.5))  # from z = 0 to 1: placed at its start, scaled
         unit_vertices = np.asarray(unit.vertices, dtype=np.float32)
         unit_faces = np.asarray(unit.faces, dtype=np.uint32)
-        for k in range(model.ntendon):
-            joint = (model.tendon(k).name or "").split("/")[0]
-            cylinder = getattr(spec.joint(joint).actuator, "cylinder", None) \
-                if joint in spec.joint_names else None
-            if cylinder is None:
-                continue
+        for k, joint, cylinder in pinned_cylinders(model, spec):
             parts = [scene.add_mesh_simple(
                 f"{prefix}/cylinders/{joint}/{part}", vertices=unit_vertices, faces=unit_faces,
                 color=_rgb(tint or colour), opacity=opacity if opacity < 1.0 else None,
@@ -143,7 +138,7 @@ class Arm3D:
                 self._colours[geom] = colour
         for j, label in enumerate(self.labels):
             label.position = view.data.xanchor[self._joint_ids[j]].copy()
-        segments = _tendon_segments(view.model, view.data)
+        segments = tendon_segments(view.model, view.data)
         if self._tendons is not None:
             self._tendons.points = segments
         for k, cylinder, barrel, rod in self.cylinders:
@@ -218,14 +213,3 @@ def looks(view: ArmView) -> bytes:
     cylinders = repr([(j.name, getattr(j.actuator, "cylinder", None)) for j in spec.joints])
     return b"".join(np.ascontiguousarray(p).tobytes() for p in parts) + cylinders.encode() + \
         repr(list(spec.joint_names)).encode()
-
-
-def _tendon_segments(model: Any, data: Any) -> np.ndarray:
-    """First to last attachment point of each tendon, m, shape (ntendon, 2, 3)."""
-    segments = np.zeros((model.ntendon, 2, 3), dtype=np.float32)
-    for k in range(model.ntendon):
-        first, count = data.ten_wrapadr[k], data.ten_wrapnum[k]
-        if count >= 2:
-            # wrap_xpos holds two points per row: the points are its rows split in half
-            segments[k] = data.wrap_xpos.reshape(-1, 3)[first:first + count][[0, count - 1]]
-    return segments

@@ -37,6 +37,33 @@ def cylinder_parts(segment: np.ndarray, cylinder: Any) -> list[tuple[np.ndarray,
             (end, _z_onto(-direction), (rod_radius, rod_radius, rod_length))]
 
 
+def pinned_cylinders(model: Any, spec: Any) -> list[tuple[int, str, Any]]:
+    """The tendons of ``model`` (compiled from ``spec``) that are pinned cylinders: (tendon id,
+    joint name, the joint's cylinder parameters) each, in tendon order. A cylinder's tendon is
+    named after its joint (``<joint>/cylinder``); a tendon of no joint, or of a joint whose
+    actuator has no cylinder, is left out."""
+    found: list[tuple[int, str, Any]] = []
+    for k in range(model.ntendon):
+        joint = (model.tendon(k).name or "").split("/")[0]
+        cylinder = getattr(spec.joint(joint).actuator, "cylinder", None) \
+            if joint in spec.joint_names else None
+        if cylinder is not None:
+            found.append((k, joint, cylinder))
+    return found
+
+
+def tendon_segments(model: Any, data: Any) -> np.ndarray:
+    """First to last attachment point of each tendon in the pose of ``data`` (after
+    ``mj_tendon``), m, shape (ntendon, 2, 3), float32."""
+    segments = np.zeros((model.ntendon, 2, 3), dtype=np.float32)
+    for k in range(model.ntendon):
+        first, count = data.ten_wrapadr[k], data.ten_wrapnum[k]
+        if count >= 2:
+            # wrap_xpos holds two points per row: the points are its rows split in half
+            segments[k] = data.wrap_xpos.reshape(-1, 3)[first:first + count][[0, count - 1]]
+    return segments
+
+
 def _z_onto(direction: np.ndarray) -> np.ndarray:
     """The quaternion (w, x, y, z) turning the z axis onto the unit vector ``direction``."""
     z = np.array([0.0, 0.0, 1.0])
