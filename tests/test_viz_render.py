@@ -278,9 +278,10 @@ def test_cli_needs_grid_or_overlay_for_several_runs(tmp_path: Path,
 
 
 def test_a_pinned_cylinder_is_drawn_between_its_pins() -> None:
-    """A pinned cylinder's tendon is in the scene as one capsule from pin to pin (where MuJoCo
-    puts the two sites at that pose), in the cylinder's colour, at every frame."""
-    from maniplab.actuators.hydraulic.pinned import COLOUR
+    """A pinned cylinder is in the scene as a barrel and a rod on the line between its pins (where
+    MuJoCo puts the two sites at that pose), the barrel from the parent pin and the rod ending at
+    the child pin, in their colours, at every frame; its tendon's own line is not drawn."""
+    from maniplab.viz.cylinders import BARREL, ROD
     from maniplab.viz.look import Look
     from maniplab.viz.render import SingleRun
 
@@ -295,12 +296,17 @@ def test_a_pinned_cylinder_is_drawn_between_its_pins() -> None:
     for k in range(len(single.times)):
         view.frame(k)
         scene = view.scene
-        drawn = [scene.geoms[i] for i in range(scene.ngeom)
-                 if scene.geoms[i].objtype == mujoco.mjtObj.mjOBJ_TENDON]
-        assert len(drawn) == 2
-        for geom, joint in zip(drawn, ("lift", "tilt")):
-            ends = [arm.data.site(f"{joint}/cylinder_{end}").xpos for end in ("base", "rod")]
-            assert geom.pos == pytest.approx(0.5 * (ends[0] + ends[1]), abs=1e-6)  # float32
-            assert 2 * geom.size[2] == pytest.approx(np.linalg.norm(ends[1] - ends[0]), rel=1e-6)
-            assert geom.rgba == pytest.approx(COLOUR, abs=1e-6)
+        geoms = [scene.geoms[i] for i in range(scene.ngeom)]
+        assert not [g for g in geoms if g.objtype == mujoco.mjtObj.mjOBJ_TENDON]
+        parts = [g for g in geoms if g.type == mujoco.mjtGeom.mjGEOM_CYLINDER
+                 and g.objtype == mujoco.mjtObj.mjOBJ_UNKNOWN]
+        assert len(parts) == 4
+        for barrel, rod, joint in zip(parts[0::2], parts[1::2], ("lift", "tilt")):
+            base, tip = (arm.data.site(f"{joint}/cylinder_{end}").xpos for end in ("base", "rod"))
+            axis = (tip - base) / np.linalg.norm(tip - base)
+            for part, end, sign, colour in ((barrel, base, 1.0, BARREL), (rod, tip, -1.0, ROD)):
+                along = part.mat.reshape(3, 3)[:, 2]
+                assert along == pytest.approx(sign * axis, abs=1e-6)
+                assert part.pos - part.size[2] * along == pytest.approx(end, abs=1e-5)
+                assert part.rgba == pytest.approx(colour, abs=1e-6)
     view.close()

@@ -9,10 +9,15 @@ from maniplab.mjcf_gen import build_mjspec, names
 from maniplab.mjcf_gen.builder import compile_model
 from maniplab.spec import ManipulatorSpec
 from maniplab.viz import palette
+from maniplab.viz.cylinders import BARREL, ROD, cylinder_parts, pinned_cylinders, tendon_segments
 from maniplab.viz.gl import RenderError
 
 AUTO_CAMERA = "maniplab_auto"
 """Name of the fixed camera added to every rendered model and placed by the automatic framing."""
+
+HIDDEN_TENDONS = mujoco.mjNGROUP - 1
+"""Tendon group of the pinned cylinders' tendons in a rendered model: scenes leave it out
+(:class:`mujoco.MjvOption`'s default), the cylinders are drawn as barrel and rod instead."""
 
 _NO_OBJECT = -1
 _GHOST_GROWTH = 1.01  # ghosts are drawn this much larger: where they coincide with the solid arm
@@ -23,7 +28,8 @@ class ArmView:
     """The MuJoCo model of a spec with one pose, drawn into scenes.
 
     The model is the one :func:`~maniplab.build_model` makes, plus a fixed world camera
-    :data:`AUTO_CAMERA` that :mod:`maniplab.viz.camera` places.
+    :data:`AUTO_CAMERA` that :mod:`maniplab.viz.camera` places; its pinned cylinders' tendons are
+    in group :data:`HIDDEN_TENDONS` (:meth:`add_cylinders` draws them).
 
     Args:
         spec: the arm.
@@ -44,6 +50,10 @@ class ArmView:
                 geom = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_GEOM, name)
                 if geom >= 0:
                     table[geom] = j
+        self.cylinders = pinned_cylinders(self.model, spec)
+        """(tendon id, joint name, cylinder parameters) of each pinned cylinder."""
+        for tendon, _, _ in self.cylinders:
+            self.model.tendon_group[tendon] = HIDDEN_TENDONS
 
     def camera_id(self, name: str) -> int:
         """Id of the model camera ``name``; raises RenderError listing the cameras when unknown."""
@@ -91,10 +101,27 @@ class ArmView:
             if rgba is not None:
                 geom.rgba[:] = rgba
             if tint is not None:
-                geom.rgba[3] = palette.GHOST_ALPHA
-                geom.transparent = 1
-                geom.castshadow = 0
-                geom.size[:] = geom.size * _GHOST_GROWTH
+                _ghost(geom)
+
+    def add_cylinders(self, scene: mujoco.MjvScene, tint: palette.RGBA | None = None) -> None:
+        """Add each pinned cylinder's barrel and rod in the current pose to ``scene`` (two
+        cylinder geoms each, placed by :func:`~maniplab.viz.cylinders.cylinder_parts`), in
+        :data:`~maniplab.viz.cylinders.BARREL` and :data:`~maniplab.viz.cylinders.ROD`, or in
+        ``tint`` as a ghost (translucent, as :meth:`colour` draws the rest of the arm)."""
+        if not self.cylinders:
+            return
+        segments = tendon_segments(self.model, self.data)
+        eye = scene.camera[0].pos + scene.camera[1].pos  # twice the eyes' middle
+        for tendon, _, cylinder in self.cylinders:
+            for part, colour in zip(cylinder_parts(segments[tendon], cylinder), (BARREL, ROD)):
+                if scene.ngeom >= scene.maxgeom:
+                    return
+                geom = scene.geoms[scene.ngeom]
+                _place_part(geom, *part, colour if tint is None else tint)
+                geom.camdist = float(np.linalg.norm(geom.pos - 0.5 * eye))
+                if tint is not None:
+                    _ghost(geom)
+                scene.ngeom += 1
 
     def geom_colour(self, geom: int, modes: np.ndarray,
                     tint: palette.RGBA | None = None) -> palette.RGBA | None:
@@ -109,3 +136,30 @@ class ArmView:
             return tint
         link = self._link_of[geom]
         return palette.link_colour(int(link)) if link != _NO_OBJECT else None
+
+
+def _ghost(geom: mujoco.MjvGeom) -> None:
+    """Make a scene geom a ghost's: translucent, casting no shadow, a little larger."""
+    geom.rgba[3] = palette.GHOST_ALPHA
+    geom.transparent = 1
+    geom.castshadow = 0
+    geom.size[:] = geom.size * _GHOST_GROWTH
+
+
+def _place_part(geom: mujoco.MjvGeom, start: np.ndarray, wxyz: np.ndarray,
+                scale: tuple[float, float, float], rgba: palette.RGBA) -> None:
+    """Make ``geom`` a cylinder part: from ``start`` (m, shape (3,)) along the z axis of the
+    rotation ``wxyz`` (shape (4,)), radius ``scale[0]`` and length ``scale[2]`` (m), in colour
+    ``rgba``, opaque (a ghost is made translucent after)."""
+    rotation = np.empty(9)
+    mujoco.mju_quat2Mat(rotation, np.asarray(wxyz, dtype=float))
+    radius, length = float(scale[0]), float(scale[2])
+    middle = np.asarray(start, dtype=float) + 0.5 * length * rotation[2::3]  # the z column
+    mujoco.mjv_initGeom(geom, mujoco.mjtGeom.mjGEOM_CYLINDER, np.zeros(3), middle, rotation,
+                        np.asarray(rgba, dtype=np.float32))
+    geom.size[:] = (radius, radius, 0.5 * length)  # (mjv_initGeom reads a model geom's sizes)
+    geom.objtype, geom.objid = mujoco.mjtObj.mjOBJ_UNKNOWN, -1
+    geom.category = mujoco.mjtCatBit.mjCAT_DECOR
+    geom.transparent = 0
+    geom.castshadow = 1
+    geom.segid = -1

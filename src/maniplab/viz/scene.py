@@ -15,7 +15,7 @@ import numpy as np
 
 from maniplab.viz import camera as cameras
 from maniplab.viz import palette
-from maniplab.viz.arm import ArmView
+from maniplab.viz.arm import HIDDEN_TENDONS, ArmView
 from maniplab.viz.canvas import Canvas
 from maniplab.viz.look import Look
 from maniplab.viz.timeline import Motion
@@ -60,8 +60,9 @@ class SceneView:
                        for k in range(len(self.motions))] if look.trace else []
         self.tints = [None] + [palette.run_colour(k) for k in range(1, len(self.motions))]
         self.option = mujoco.MjvOption()
+        self.option.tendongroup[HIDDEN_TENDONS] = 0  # pinned cylinders: barrel and rod instead
         self.perturb = mujoco.MjvPerturb()
-        maxgeom = sum(a.model.ngeom + a.model.nsite + a.model.nwrap
+        maxgeom = sum(a.model.ngeom + a.model.nsite + a.model.nwrap + 2 * len(a.cylinders)
                       for a in self.arms) + _SPARE_GEOMS
         self.scene = mujoco.MjvScene(self.arms[0].model,
                                      maxgeom=maxgeom + len(self.trails) * max_segments())
@@ -95,6 +96,7 @@ class SceneView:
                 mujoco.mjv_addGeoms(arm.model, arm.data, self.option, self.perturb,
                                     int(mujoco.mjtCatBit.mjCAT_DYNAMIC), scene)
             arm.colour(scene, start, motion.modes[k], self.tints[i])
+            arm.add_cylinders(scene, self.tints[i])
         for arm, trail in zip(self.arms, self.trails):
             tip = arm.end_effector_position
             trail.add_to(scene, tip)
