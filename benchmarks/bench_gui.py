@@ -12,8 +12,9 @@ Printed (medians over the repeats):
   three runs as ghosts), against MuJoCo's offscreen renderer drawing the same run's frames
   (``ml.render``, 640x360, the videos' path; the peer).
 * replay, browser side: frames per second the exported HTML replay draws while it plays in
-  headless chromium on the software (SwiftShader) WebGL of a machine without GPU, against the
-  same browser's frame rate on an empty viser scene.
+  headless chromium on the software (SwiftShader) WebGL of a machine without GPU (maniplab's own
+  player, and viser's recording player it replaced), against the same browser's frame rate on an
+  empty viser scene (``--only html`` runs this part alone).
 """
 
 from __future__ import annotations
@@ -37,7 +38,7 @@ import viser
 
 import maniplab as ml
 from maniplab.gui.app import Gui
-from maniplab.gui.replay import Replay, recording_server, replay_html
+from maniplab.gui.replay import Replay, recording_server, replay_html, stage
 
 FRAME_RATE_JS = """
 const done = arguments[arguments.length - 1];
@@ -122,32 +123,95 @@ def replay_rates(repeats: int) -> None:
         a, b = statistics.median(rates), statistics.median(rendered)
         print(f"replay poses, {count} run(s): {a:.0f} frames/s; MuJoCo offscreen video "
               f"{b:.0f} frames/s: ratio {a / b:.1f}")
-    page = Path(tempfile.mkdtemp()) / "replay.html"
-    page.write_text(replay_html(runs[:2]))
+    html_replay_rates(runs[:2], repeats)
+
+
+PLAYING_RATE_JS = """
+const done = arguments[arguments.length - 1];
+const player = window.maniplabPlayer;
+const f0 = player.frame, d0 = player.drawn, t0 = performance.now();
+let frames = 0, playing = player.playing;
+function tick() {
+  frames++; playing = playing && player.playing;
+  if (performance.now() - t0 < 3000) { requestAnimationFrame(tick); return; }
+  const s = (performance.now() - t0) / 1000;
+  done({raf: frames / s, drawn: (player.drawn - d0) / s, advanced: player.frame !== f0, playing});
+}
+requestAnimationFrame(tick);
+"""
+
+
+def _viser_replay_page(runs: list) -> str:
+    """The HTML replay as it was before maniplab's own player: viser's recording of the scene
+    updates, played by viser's player (the "before" of the HTML replay's frame rate)."""
     with recording_server() as server:
-        empty = Path(tempfile.mkdtemp()) / "empty.html"
-        empty.write_text(server.scene.as_html())
+        replay = Replay(server.scene, runs, 30.0)
+        stage(server, [run.spec for run in runs], replay.bounds())
+        recorder = server.get_scene_serializer()
+        for frame in range(1, replay.frames):
+            recorder.insert_sleep(1.0 / replay.fps)
+            replay.show(frame)
+        recorder.insert_sleep(1.0 / replay.fps)
+        return str(recorder.as_html())
+
+
+def _rate(driver, path: Path, repeats: int, ours: bool) -> float:
+    """Median frames/s over ``repeats`` 3-s windows while the page at ``path`` plays: for our
+    player the frames it drew, checked to be playing and advancing; else rAF callbacks."""
+    samples = []
+    for _ in range(repeats):
+        driver.get(path.as_uri())
+        web.wait(lambda: driver.find_elements("css selector", "canvas"), "the canvas")
+        if ours:
+            web.wait(lambda: driver.execute_script("return window.maniplabPlayer"), "the player")
+            driver.execute_script("maniplabPlayer.seek(maniplabPlayer.t0); maniplabPlayer.play()")
+            time.sleep(1.0)
+            got = driver.execute_async_script(PLAYING_RATE_JS)
+            assert got["playing"] and got["advanced"], f"the replay did not play: {got}"
+            samples.append(got["drawn"])
+        else:
+            time.sleep(1.0)
+            samples.append(driver.execute_async_script(FRAME_RATE_JS))
+    return statistics.median(samples)
+
+
+def html_replay_rates(runs: list | None, repeats: int) -> None:
+    """The exported HTML replay of ``runs`` playing in headless chromium (software WebGL): our
+    player, and viser's recording player it replaced, against the same browser on an empty
+    viser scene (the peer). Without runs: the erector's two of :func:`replay_rates`."""
+    if runs is None:
+        spec = ml.builtin_spec("erector")
+        runs = [ml.simulate(spec, inputs={"q6": ml.signals.sine(0.3, 0.5)}, duration=4.0,
+                            initial={"dP": "gravity"}, overrides={"end_effector.mass": m})
+                for m in (4000.0, 3000.0)]
+    folder = Path(tempfile.mkdtemp())
+    pages = {"ours": folder / "replay.html", "viser": folder / "viser.html",
+             "empty": folder / "empty.html"}
+    pages["ours"].write_text(replay_html(runs))
+    pages["viser"].write_text(_viser_replay_page(runs))
+    with recording_server() as server:
+        pages["empty"].write_text(server.scene.as_html())
     with web.chromium(offline=True) as driver:
         driver.set_script_timeout(30)
-        fps = {}
-        for name, path in (("replay", page), ("empty", empty)):
-            samples = []
-            for _ in range(repeats):
-                driver.get(path.as_uri())
-                web.wait(lambda: driver.find_elements("css selector", "canvas"), "the canvas")
-                time.sleep(1.0)
-                samples.append(driver.execute_async_script(FRAME_RATE_JS))
-            fps[name] = statistics.median(samples)
-    print(f"HTML replay in headless chromium (software WebGL): {fps['replay']:.0f} frames/s; "
-          f"empty viser scene {fps['empty']:.0f} frames/s: ratio {fps['replay'] / fps['empty']:.2f}")
+        fps = {name: _rate(driver, path, repeats, name == "ours") for name, path in pages.items()}
+    for name, what in (("ours", "maniplab's player"), ("viser", "viser's player (before)")):
+        print(f"HTML replay in headless chromium (software WebGL), {what}: {fps[name]:.1f} "
+              f"frames/s; empty viser scene {fps['empty']:.0f} frames/s: ratio "
+              f"{fps[name] / fps['empty']:.2f}")
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--only", choices=("startup", "replay", "html"),
+                        help="run only this part")
     args = parser.parse_args()
-    startup(args.repeats)
-    replay_rates(args.repeats)
+    if args.only in (None, "startup"):
+        startup(args.repeats)
+    if args.only in (None, "replay"):
+        replay_rates(args.repeats)
+    if args.only == "html":
+        html_replay_rates(None, args.repeats)
 
 
 if __name__ == "__main__":
