@@ -5,6 +5,8 @@
 (async function () {
   const meta = JSON.parse(document.getElementById("ml-meta").textContent);
   const POSE = 8; // floats per part per frame: position (3), quaternion w x y z, length scale
+  const GROWTH = 1.01; // ghosts drawn this much larger: where one nearly coincides with the solid
+  // arm (the base, a joint that did not move), equal depths would otherwise speckle
 
   async function inflate() {
     const text = atob(document.getElementById("ml-data").textContent.trim());
@@ -56,10 +58,10 @@
   }
   // model matrix and normal matrix (rotation times inverse scale) of a part's pose
   const model = new Float32Array(16), normalMat = new Float32Array(9);
-  function place(pose, o, radius) {
+  function place(pose, o, radius, grow = 1) {
     const px = pose[o], py = pose[o + 1], pz = pose[o + 2];
     const w = pose[o + 3], x = pose[o + 4], y = pose[o + 5], z = pose[o + 6];
-    const sz = pose[o + 7], sx = radius;
+    const sz = pose[o + 7] * grow, sx = radius * grow;
     const r = [1 - 2 * (y * y + z * z), 2 * (x * y + w * z), 2 * (x * z - w * y),
                2 * (x * y - w * z), 1 - 2 * (x * x + z * z), 2 * (y * z + w * x),
                2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)];
@@ -210,7 +212,7 @@
     const m = meshProgram, parts = run.parts, count = parts.length;
     for (let p = 0; p < count; p++) {
       const mesh = meshes[parts[p].mesh];
-      place(run.poses, (frame * count + p) * POSE, parts[p].radius);
+      place(run.poses, (frame * count + p) * POSE, parts[p].radius, run.ghost ? GROWTH : 1);
       if (pickBase === undefined) {
         const c = colours[run.colourIndex[frame * count + p]];
         gl.uniform4f(m.u.uColour, c[0], c[1], c[2], alpha);
