@@ -15,6 +15,9 @@ Printed (medians over the repeats):
   headless chromium on the software (SwiftShader) WebGL of a machine without GPU (maniplab's own
   player, and viser's recording player it replaced), against the same browser's frame rate on an
   empty viser scene (``--only html`` runs this part alone).
+* the live Watch tab, browser side: frames per second the GUI's page draws in headless chromium
+  (software WebGL) while the server plays two erector runs (one solid, one ghost) at 30 frames/s,
+  against the same page with the replay shown and paused (``--only watch``).
 """
 
 from __future__ import annotations
@@ -200,10 +203,49 @@ def html_replay_rates(runs: list | None, repeats: int) -> None:
               f"{fps[name] / fps['empty']:.2f}")
 
 
+def watch_rates(repeats: int, count: int = 2) -> None:
+    """The live Watch tab in headless chromium: the page's frame rate while the server plays the
+    erector's runs (the first solid, the others as ghosts), against the same page with the same
+    replay shown but paused (the peer)."""
+    spec = ml.builtin_spec("erector")
+    folder = tempfile.mkdtemp()
+    app = Gui(spec, folder, port=_port())
+    try:
+        for k, mass in enumerate((4000.0, 3000.0, 2000.0)[:count]):
+            run = ml.simulate(spec, inputs={"q6": ml.signals.sine(0.3, 0.5),
+                                            "q2": ml.signals.sine(0.2, 0.25)},
+                              duration=3.0 * repeats + 4.0, initial={"dP": "gravity"},
+                              overrides={"end_effector.mass": mass})
+            app.workspace.save_run(run, f"run{k}")
+        app.runs_changed()
+        for box in app.runs.picks.values():
+            box.value = True
+        with web.chromium() as driver:
+            driver.set_script_timeout(30)
+            driver.get(app.url)
+            web.wait(lambda: web.visible(driver, "//table[@id='ml-joints']"), "the table")
+            web.tab(driver, "Watch")
+            app.watch.show()
+            assert app.watch.replay is not None, app.watch.message.content
+            time.sleep(2.0)
+            idle = [driver.execute_async_script(FRAME_RATE_JS) for _ in range(repeats)]
+            app.watch.toggle()
+            time.sleep(0.5)
+            playing = []
+            for _ in range(repeats):
+                playing.append(driver.execute_async_script(FRAME_RATE_JS))
+            app.watch.toggle()
+    finally:
+        app.close()
+    a, b = statistics.median(playing), statistics.median(idle)
+    print(f"live Watch tab in headless chromium (software WebGL), {count} run(s) playing: "
+          f"{a:.1f} frames/s; the same page paused {b:.1f} frames/s: ratio {a / b:.2f}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=5)
-    parser.add_argument("--only", choices=("startup", "replay", "html"),
+    parser.add_argument("--only", choices=("startup", "replay", "html", "watch"),
                         help="run only this part")
     args = parser.parse_args()
     if args.only in (None, "startup"):
@@ -212,6 +254,8 @@ def main() -> None:
         replay_rates(args.repeats)
     if args.only == "html":
         html_replay_rates(None, args.repeats)
+    if args.only in (None, "watch"):
+        watch_rates(args.repeats)
 
 
 if __name__ == "__main__":

@@ -128,14 +128,13 @@ def test_the_3d_arm_stands_where_mujoco_puts_it(spec: ml.ManipulatorSpec) -> Non
         arm = Arm3D(server.scene, "/arm", spec)
         arm.pose(q)
         assert arm._meshes, f"{spec.name}: no geometry drawn"
-        for geom, handle in arm._meshes:
+        for geom, _ in arm._meshes:
             name = model.geom(geom).name
             reference = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, name)
-            np.testing.assert_allclose(handle.position, data.geom_xpos[reference], atol=1e-9,
+            position, rotation = arm.drawn_pose(geom)  # its body's frame and its place in it
+            np.testing.assert_allclose(position, data.geom_xpos[reference], atol=1e-9,
                                        err_msg=f"{spec.name} {name}")
-            rotation = np.empty(9)
-            mujoco.mju_quat2Mat(rotation, np.asarray(handle.wxyz, dtype=float))
-            np.testing.assert_allclose(rotation, data.geom_xmat[reference], atol=1e-9)
+            np.testing.assert_allclose(rotation.ravel(), data.geom_xmat[reference], atol=1e-9)
 
 
 def test_a_stopped_run_stores_nothing(tmp_path: Path) -> None:
@@ -485,9 +484,10 @@ def test_the_page_says_its_state_next_to_the_control(tmp_path: Path) -> None:
             web.wait(lambda: app.watch.replay is not None, "the replay")
             arm = app.configure.arm3d
             assert arm is not None
-            web.wait(lambda: not any(h.visible for _, h in arm._meshes), "the arm hidden")
+            # hidden: every node of the arm that is no child of another (a body's frame, its geoms)
+            web.wait(lambda: not any(n.visible for n in arm._nodes()), "the arm hidden")
             web.tab(driver, "Configure")
-            web.wait(lambda: app.watch.replay is None and all(h.visible for _, h in arm._meshes),
+            web.wait(lambda: app.watch.replay is None and all(n.visible for n in arm._nodes()),
                      "the replay taken away, the arm shown")
             assert app.simulate.gizmo is not None and not app.simulate.gizmo.visible
             assert "/target/name" in app.server.scene._handle_from_node_name  # its label
@@ -809,9 +809,10 @@ def test_a_replay_sends_only_what_moved() -> None:
         data = mujoco.MjData(model)
         data.qpos[:] = q + 0.1
         mujoco.mj_forward(model, data)
-        for geom, handle in arm._meshes:
+        for geom, _ in arm._meshes:
             reference = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, model.geom(geom).name)
-            np.testing.assert_allclose(handle.position, data.geom_xpos[reference], atol=1e-9)
+            np.testing.assert_allclose(arm.drawn_pose(geom)[0], data.geom_xpos[reference],
+                                       atol=1e-9)
 
 
 def test_an_edit_that_changes_nothing_drawn_keeps_the_3d_arm(tmp_path: Path) -> None:
@@ -833,8 +834,9 @@ def test_an_edit_that_changes_nothing_drawn_keeps_the_3d_arm(tmp_path: Path) -> 
 
         data.qpos[:] = home(app.spec)
         mujoco.mj_forward(model, data)
-        for geom, handle in tab.arm3d._meshes:
+        for geom, _ in tab.arm3d._meshes:
             reference = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, model.geom(geom).name)
-            np.testing.assert_allclose(handle.position, data.geom_xpos[reference], atol=1e-9)
+            np.testing.assert_allclose(tab.arm3d.drawn_pose(geom)[0], data.geom_xpos[reference],
+                                       atol=1e-9)
     finally:
         app.close()

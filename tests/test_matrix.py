@@ -670,13 +670,12 @@ def cell_gui_arm3d(arm: str, work: Path) -> str:
         view = Arm3D(server.scene, "/arm", spec)
         view.pose(q)
         assert view._meshes, "no geometry drawn"
-        for geom, handle in view._meshes:
+        for geom, _ in view._meshes:
             name = model.geom(geom).name
             ref = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, name)
-            np.testing.assert_allclose(handle.position, data.geom_xpos[ref], atol=1e-9)
-            rotation = np.empty(9)
-            mujoco.mju_quat2Mat(rotation, np.asarray(handle.wxyz, dtype=float))
-            np.testing.assert_allclose(rotation, data.geom_xmat[ref], atol=1e-9)
+            position, rotation = view.drawn_pose(geom)  # its body's frame and its place in it
+            np.testing.assert_allclose(position, data.geom_xpos[ref], atol=1e-9)
+            np.testing.assert_allclose(rotation.ravel(), data.geom_xmat[ref], atol=1e-9)
     return f"{len(view._meshes)} meshes"
 
 

@@ -1,4 +1,5 @@
-"""An arm in a viser (three.js) scene: one mesh per MuJoCo geom, posed from joint positions.
+"""An arm in a viser (three.js) scene: one frame per MuJoCo body holding its geoms' meshes, posed
+from joint positions.
 
 The geometry is the MuJoCo model's (:class:`~maniplab.viz.arm.ArmView`): the same boxes,
 capsules and cylinders the videos show, placed by MuJoCo's own forward kinematics, and coloured
@@ -55,6 +56,11 @@ def _rgb(colour: palette.RGBA | np.ndarray) -> tuple[int, int, int]:
 class Arm3D:
     """One arm drawn under scene node ``prefix``.
 
+    Each MuJoCo body is one scene frame (``{prefix}/body{b}``) and its geoms are meshes fixed
+    in it at their place in the body (``model.geom_pos``, ``geom_quat``): posing the arm sends
+    one position and orientation per body that moved, not per geom. Colours are sent only when
+    a joint's state changes them, a cylinder's size only when its length changes.
+
     Args:
         scene: a viser scene API (``server.scene``).
         prefix: scene-tree name of the arm, e.g. ``"/arm"``.
@@ -70,23 +76,30 @@ class Arm3D:
         self.view = view if view is not None else ArmView(spec)
         self.prefix, self.tint = prefix, tint
         model = self.view.model
-        opacity = palette.GHOST_ALPHA if tint is not None else 1.0
-        self._meshes: list[tuple[int, Any]] = []
+        self._opacity = palette.GHOST_ALPHA if tint is not None else None
+        self._meshes: list[tuple[int, Any]] = []  # geom, its mesh (posed in its body's frame)
+        self._bodies: dict[int, Any] = {}  # body -> its frame (the world's bodies: none)
         self._colours: dict[int, tuple[int, int, int]] = {}
         self._surfaces: dict[int, np.ndarray] = {}  # vertices in each geom's frame, m
         self._placed: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # handle -> pose sent
+        self._scales: dict[int, tuple[float, float, float]] = {}  # handle -> scale sent
         rest = np.full(spec.n, int(FrictionMode.SLIP))
         for geom in range(model.ngeom):
             surface = geom_mesh(model, geom)
             if surface is None:
                 continue
+            body = int(model.geom_bodyid[geom])
+            if body > 0 and body not in self._bodies:
+                self._bodies[body] = scene.add_frame(f"{prefix}/body{body}", show_axes=False)
+            parent = f"{prefix}/body{body}" if body > 0 else prefix
+            name = (model.geom(geom).name or f"geom{geom}").replace("/", "_")
             colour = self._colour(geom, rest)
             handle = scene.add_mesh_simple(
-                f"{prefix}/{model.geom(geom).name or f'geom{geom}'}",
-                vertices=np.asarray(surface.vertices, dtype=np.float32),
+                f"{parent}/{name}", vertices=np.asarray(surface.vertices, dtype=np.float32),
                 faces=np.asarray(surface.faces, dtype=np.uint32), color=colour,
-                opacity=opacity if opacity < 1.0 else None, flat_shading=False,
-                cast_shadow=False, receive_shadow=False)
+                opacity=self._opacity, flat_shading=False, cast_shadow=False,
+                receive_shadow=False, position=model.geom_pos[geom].copy(),
+                wxyz=model.geom_quat[geom].copy())
             self._meshes.append((geom, handle))
             self._colours[geom] = colour
             self._surfaces[geom] = np.asarray(surface.vertices, dtype=float)
@@ -99,8 +112,8 @@ class Arm3D:
         for k, joint, cylinder in pinned_cylinders(model, spec):
             parts = [scene.add_mesh_simple(
                 f"{prefix}/cylinders/{joint}/{part}", vertices=unit_vertices, faces=unit_faces,
-                color=_rgb(tint or colour), opacity=opacity if opacity < 1.0 else None,
-                flat_shading=False, cast_shadow=False, receive_shadow=False)
+                color=_rgb(tint or colour), opacity=self._opacity, flat_shading=False,
+                cast_shadow=False, receive_shadow=False)
                 for part, colour in (("barrel", BARREL), ("rod", ROD))]
             self.cylinders.append((k, cylinder, *parts))
         self._joint_ids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)
@@ -113,6 +126,8 @@ class Arm3D:
             self._tendons = scene.add_line_segments(
                 f"{prefix}/tendons", points=np.zeros((model.ntendon, 2, 3), dtype=np.float32),
                 colors=_rgb(tint or (0.35, 0.37, 0.40, 1.0)), thickness=_TENDON_WIDTH)
+        self._segments: np.ndarray | None = None  # the tendon line's points sent
+        self.visible = True
 
     def _colour(self, geom: int, modes: np.ndarray) -> tuple[int, int, int]:
         own = self.view.geom_colour(geom, modes, self.tint)
@@ -128,29 +143,34 @@ class Arm3D:
         view = self.view
         view.pose(np.asarray(q, dtype=float))
         modes = np.full(view.spec.n, int(FrictionMode.SLIP)) if modes is None else modes
-        quat = np.empty(4)
+        for body, frame in self._bodies.items():
+            self._place(frame, view.data.xpos[body], view.data.xquat[body])
         for geom, handle in self._meshes:
-            mujoco.mju_mat2Quat(quat, view.data.geom_xmat[geom])
-            self._place(handle, view.data.geom_xpos[geom], quat)
             colour = self._colour(geom, modes)
             if colour != self._colours[geom]:
                 handle.color = colour
                 self._colours[geom] = colour
         for j, label in enumerate(self.labels):
-            label.position = view.data.xanchor[self._joint_ids[j]].copy()
+            here = view.data.xanchor[self._joint_ids[j]]
+            if not np.array_equal(label.position, here):
+                label.position = here.copy()
         segments = tendon_segments(view.model, view.data)
-        if self._tendons is not None:
+        if self._tendons is not None and (self._segments is None or
+                                          not np.array_equal(self._segments, segments)):
             self._tendons.points = segments
+            self._segments = segments
         for k, cylinder, barrel, rod in self.cylinders:
             for handle, (start, wxyz, scale) in zip((barrel, rod),
                                                     cylinder_parts(segments[k], cylinder)):
-                if self._place(handle, start, wxyz):
-                    handle.scale = scale
+                self._place(handle, start, wxyz)
+                size = (float(scale[0]), float(scale[1]), float(scale[2]))
+                if self._scales.get(id(handle)) != size:  # a size is a mesh's property: the
+                    handle.scale = size  # page builds the mesh anew, so only when it changed
+                    self._scales[id(handle)] = size
 
     def _place(self, handle: Any, position: np.ndarray, wxyz: np.ndarray) -> bool:
         """Move ``handle`` to ``position`` and ``wxyz`` when it is not there already (a replay
-        sends only what moved: a frame's updates are what the page's player spends its time on);
-        returns whether it moved."""
+        sends only what moved); returns whether it moved."""
         position, wxyz = np.array(position, dtype=float), np.array(wxyz, dtype=float)
         last = self._placed.get(id(handle))
         if last is not None and np.array_equal(last[0], position) and \
@@ -159,6 +179,20 @@ class Arm3D:
         handle.position, handle.wxyz = position, wxyz
         self._placed[id(handle)] = (position, wxyz)
         return True
+
+    def drawn_pose(self, geom: int) -> tuple[np.ndarray, np.ndarray]:
+        """Where the page draws geom ``geom``, from what was sent it: its body's frame composed
+        with the geom's place in the body: world position (m, shape (3,)) and rotation matrix
+        (shape (3, 3))."""
+        handle = dict(self._meshes)[geom]
+        local = _matrix(np.asarray(handle.wxyz, dtype=float))
+        body = int(self.view.model.geom_bodyid[geom])
+        frame = self._bodies.get(body)
+        if frame is None:
+            return np.asarray(handle.position, dtype=float), local
+        rotation = _matrix(np.asarray(frame.wxyz, dtype=float))
+        return (np.asarray(frame.position, dtype=float) +
+                rotation @ np.asarray(handle.position, dtype=float), rotation @ local)
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """The arm's box in the current pose (every vertex drawn, the floor left out): lowest and
@@ -177,28 +211,32 @@ class Arm3D:
         """End-effector position in the current pose, m, shape (3,)."""
         return self.view.end_effector_position
 
+    def _nodes(self) -> list[Any]:
+        """Every scene node of the arm that is no child of another."""
+        nodes = list(self._bodies.values())
+        nodes += [h for g, h in self._meshes if int(self.view.model.geom_bodyid[g]) == 0]
+        nodes += [part for _, _, barrel, rod in self.cylinders for part in (barrel, rod)]
+        nodes += self.labels
+        return nodes + ([self._tendons] if self._tendons is not None else [])
+
     def set_visible(self, visible: bool) -> None:
-        """Show or hide the arm."""
-        for _, handle in self._meshes:
-            handle.visible = visible
-        for _, _, barrel, rod in self.cylinders:
-            barrel.visible = rod.visible = visible
-        for label in self.labels:
-            label.visible = visible
-        if self._tendons is not None:
-            self._tendons.visible = visible
+        """Show or hide the arm (a body's frame hides its geoms with it)."""
+        if visible == self.visible:
+            return
+        for node in self._nodes():
+            node.visible = visible
+        self.visible = visible
 
     def remove(self) -> None:
         """Take the arm out of the scene."""
-        for _, handle in self._meshes:
-            handle.remove()
-        for _, _, barrel, rod in self.cylinders:
-            barrel.remove()
-            rod.remove()
-        for label in self.labels:
-            label.remove()
-        if self._tendons is not None:
-            self._tendons.remove()
+        for node in self._nodes():
+            node.remove()
+
+
+def _matrix(wxyz: np.ndarray) -> np.ndarray:
+    rotation = np.empty(9)
+    mujoco.mju_quat2Mat(rotation, wxyz)
+    return rotation.reshape(3, 3)
 
 
 def looks(view: ArmView) -> bytes:

@@ -46,6 +46,11 @@ class WatchTab:
         app.job_buttons.append(export)
         gui.add_button("Back to the arm").on_click(lambda _: self.hide())
         self.message = gui.add_markdown("")
+        # Nothing in maniplab's scenes casts a shadow (the arms are drawn without), yet viser's
+        # default light renders its shadow maps at every frame the page draws: more than half
+        # of a frame on a software WebGL (SwiftShader, a machine without GPU) while a replay
+        # plays. Without them the scene looks the same.
+        app.server.scene.configure_default_lights(enabled=True, cast_shadow=False)
         self.replay: Replay | None = None
         self.playing = threading.Event()
         self._lock = threading.Lock()
