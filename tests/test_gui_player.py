@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 from PIL import Image
 from selenium.webdriver.common.action_chains import ActionChains
+from selenium.webdriver.common.actions.wheel_input import ScrollOrigin
 from selenium.webdriver.common.by import By
 from selenium.webdriver.common.keys import Keys
 
@@ -218,3 +219,26 @@ def test_arms_nobody_tuned_the_player_for(driver: Any, tmp_path: Path, arm: str)
     site = data.site_xpos[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, names.END_EFFECTOR)]
     np.testing.assert_allclose(driver.execute_script("return maniplabPlayer.endEffector(0)"),
                                site, atol=1e-4)
+
+
+def test_dragging_orbits_and_the_wheel_zooms(driver: Any, tmp_path: Path) -> None:
+    """A drag turns the camera about its target; scrolling towards the page brings it closer (two
+    world points drawn farther apart)."""
+    spec = ml.builtin_spec("patu655")
+    _open(driver, tmp_path / "replay.html", _runs(spec))
+    points = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+
+    def apart() -> float:
+        a, b = (np.array(_project(driver, p)) for p in points)
+        return float(np.linalg.norm(a - b))
+
+    canvas = driver.find_element(By.ID, "ml-view")
+    before = _project(driver, points[1])
+    ActionChains(driver).move_to_element(canvas).click_and_hold().move_by_offset(120, 40) \
+        .release().perform()
+    moved = _project(driver, points[1])
+    assert np.linalg.norm(np.subtract(moved, before)) > 20
+    span = apart()
+    ActionChains(driver).scroll_from_origin(
+        ScrollOrigin.from_element(canvas), 0, -300).perform()
+    web.wait(lambda: apart() > 1.2 * span, "the view zoomed in")
