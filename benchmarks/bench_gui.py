@@ -41,7 +41,8 @@ import viser
 
 import maniplab as ml
 from maniplab.gui.app import Gui
-from maniplab.gui.replay import Replay, recording_server, replay_html, stage
+from maniplab.gui.player import replay_html
+from maniplab.gui.replay import Replay, recording_server, stage
 
 FRAME_RATE_JS = """
 const done = arguments[arguments.length - 1];

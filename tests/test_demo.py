@@ -76,7 +76,7 @@ def test_report_embeds_the_3d_replay_of_the_closed_loop_runs(demo) -> None:
     assert [(name, html_module.unescape(doc)) for name, doc in frames] == \
         [("closed_loop_replay.html", page)]
     assert "href='closed_loop_replay.html'" in report
-    assert "__VISER_EMBED_DATA__" in page and "<script src=\"http" not in page
+    assert "window.maniplabPlayer" in page and "http://" not in page.lower()
 
 
 def test_reported_tracking_error_follows_from_the_stored_run(demo) -> None:

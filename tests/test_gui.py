@@ -21,7 +21,8 @@ from selenium.webdriver.common.keys import Keys
 import maniplab as ml
 from maniplab.gui.app import IDLE_STOP, Gui
 from maniplab.gui.arm3d import Arm3D
-from maniplab.gui.replay import recording_server, replay_html
+from maniplab.gui.player import replay_html
+from maniplab.gui.replay import recording_server
 from maniplab.gui.simulate import headline_overrides, inputs_of, term
 from maniplab.gui.workspace import Workspace, WorkspaceError
 

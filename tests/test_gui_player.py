@@ -19,7 +19,7 @@ from selenium.webdriver.common.by import By
 from selenium.webdriver.common.keys import Keys
 
 import maniplab as ml
-from maniplab.gui.replay import replay_html
+from maniplab.gui.player import replay_html
 from maniplab.mjcf_gen import names
 from maniplab.sim.run import Run
 from maniplab.viz import palette

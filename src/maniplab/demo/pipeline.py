@@ -24,7 +24,7 @@ import maniplab as ml
 from maniplab.atomic import atomic_path, write_text
 from maniplab.demo.erector import MOVE_Q0, acceptance_move, run_case
 from maniplab.demo.report import Section, write_report
-from maniplab.gui.replay import replay_html
+from maniplab.gui.player import replay_html
 from maniplab.mjcf_gen import write_mjcf
 from maniplab.model.export import export_model
 from maniplab.viz.plots import compare, save_figure

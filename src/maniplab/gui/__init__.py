@@ -1,2 +1,2 @@
 """The browser GUI (``maniplab gui``): configure, simulate, compare and watch an arm on one page,
-and the offline HTML replays (:func:`maniplab.gui.replay.replay_html`)."""
+and the offline HTML replays (:func:`maniplab.gui.player.replay_html`)."""

@@ -248,11 +248,19 @@ def player_data(runs: Sequence[Run], fps: float = 30.0,
     return meta, b"".join(scene.blob.chunks)
 
 
-def player_html(runs: Sequence[Run], fps: float = 30.0,
-                labels: Sequence[str] | None = None) -> str:
-    """A self-contained HTML page replaying ``runs`` with the player of ``player.js`` (WebGL,
-    orbit, zoom, play/pause, scrub, speed, key, joint names on hover); it opens from a file,
-    offline. Arguments as :func:`player_data` takes them."""
+def replay_html(runs: Sequence[Run], fps: float = 30.0,
+                names: Sequence[str] | None = None) -> str:
+    """A self-contained HTML page replaying ``runs`` in 3D with the player of ``player.js``
+    (WebGL, the arms posed by MuJoCo at every frame, all inline; it opens from a file, offline):
+    the first run solid, the others as ghosts, the end-effector paths traced; orbit, zoom,
+    play/pause (space bar), a time slider, a speed choice, a key naming each run, and the joint
+    under the pointer named. ``fps`` as :class:`~maniplab.gui.replay.Replay` takes it; ``names``:
+    each run's name (default: the runs' labels), with the parameters in which the runs differ
+    added to it."""
+    from maniplab.gui.runs import legend
+
+    labels = legend(list(runs), list(names) if names is not None else
+                    [run.label or f"run {k + 1}" for k, run in enumerate(runs)]) if runs else None
     meta, blob = player_data(runs, fps, labels)
     folder = resources.files("maniplab.gui")
     page = folder.joinpath("player.html").read_text(encoding="utf-8")

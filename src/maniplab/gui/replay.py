@@ -2,7 +2,7 @@
 joint coloured by its stick/slip/limit state, the end-effector paths traced.
 
 :class:`Replay` drives the GUI's Watch tab (frame by frame, from the timeline). The
-self-contained HTML replays (:func:`replay_html`) have a player of their own
+self-contained HTML replays (:func:`maniplab.gui.player.replay_html`) have a player of their own
 (:mod:`maniplab.gui.player`: WebGL, every frame's poses computed by MuJoCo and inline), with
 play, pause, a scrubbing slider and a speed control; both frame the arms alike
 (:func:`framing`). The page needs no network and no server.
@@ -219,22 +219,6 @@ def recording_server() -> Iterator[Any]:
             yield server
         finally:
             server.stop()
-
-
-def replay_html(runs: Sequence[Run], fps: float = 30.0,
-                names: Sequence[str] | None = None) -> str:
-    """A self-contained HTML page replaying ``runs`` in 3D (:mod:`maniplab.gui.player`: our own
-    WebGL player, the arms posed by MuJoCo at every frame, all inline; it opens from a file,
-    offline): the first run solid, the others as ghosts, the end-effector paths traced; orbit,
-    zoom, play/pause (space bar), a time slider, a speed choice, a key naming each run, and the
-    joint under the pointer named. ``fps`` as :class:`Replay` takes it; ``names``: each run's name
-    (default: the runs' labels), with the parameters in which the runs differ added to it."""
-    from maniplab.gui.player import player_html
-    from maniplab.gui.runs import legend
-
-    labels = legend(list(runs), list(names) if names is not None else
-                    [run.label or f"run {k + 1}" for k, run in enumerate(runs)]) if runs else None
-    return player_html(runs, fps, labels)
 
 
 def _free_port() -> int:

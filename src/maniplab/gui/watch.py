@@ -14,7 +14,8 @@ import time
 from typing import TYPE_CHECKING, Any
 
 from maniplab.errors import ManiplabError
-from maniplab.gui.replay import Replay, replay_html, stage
+from maniplab.gui.player import replay_html
+from maniplab.gui.replay import Replay, stage
 from maniplab.gui.runs import legend
 from maniplab.gui.text import plain, warning
 from maniplab.viz import palette
