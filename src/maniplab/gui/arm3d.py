@@ -24,6 +24,9 @@ from maniplab.viz.cylinders import BARREL, ROD, cylinder_parts, pinned_cylinders
 
 _SEGMENTS = 24  # facets around a cylinder or capsule
 _TENDON_WIDTH = 0.08  # m
+GHOST_GROWTH = 1.01
+"""A ghost's geoms are drawn this much larger about their centres (as the videos draw them): a
+ghost over the solid arm never lies at the solid's depth."""
 
 
 def geom_mesh(model: Any, geom: int) -> trimesh.Trimesh | None:
@@ -65,7 +68,8 @@ class Arm3D:
         scene: a viser scene API (``server.scene``).
         prefix: scene-tree name of the arm, e.g. ``"/arm"``.
         spec: the arm.
-        tint: draw the arm as a translucent ghost of this colour (joint states still shown).
+        tint: draw the arm as a translucent ghost of this colour (joint states still shown),
+            its geoms :data:`GHOST_GROWTH` larger.
         labels: name each joint in the scene, at its axis (MuJoCo's joint anchor).
         view: the arm's :class:`ArmView`, when made already.
     """
@@ -84,6 +88,7 @@ class Arm3D:
         self._placed: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # handle -> pose sent
         self._scales: dict[int, tuple[float, float, float]] = {}  # handle -> scale sent
         rest = np.full(spec.n, int(FrictionMode.SLIP))
+        grow = GHOST_GROWTH if tint is not None else 1.0
         for geom in range(model.ngeom):
             surface = geom_mesh(model, geom)
             if surface is None:
@@ -95,7 +100,7 @@ class Arm3D:
             name = (model.geom(geom).name or f"geom{geom}").replace("/", "_")
             colour = self._colour(geom, rest)
             handle = scene.add_mesh_simple(
-                f"{parent}/{name}", vertices=np.asarray(surface.vertices, dtype=np.float32),
+                f"{parent}/{name}", vertices=np.asarray(surface.vertices * grow, dtype=np.float32),
                 faces=np.asarray(surface.faces, dtype=np.uint32), color=colour,
                 opacity=self._opacity, flat_shading=False, cast_shadow=False,
                 receive_shadow=False, position=model.geom_pos[geom].copy(),
