@@ -236,11 +236,33 @@ def watch_rates(repeats: int, count: int = 2) -> None:
             for _ in range(repeats):
                 playing.append(driver.execute_async_script(FRAME_RATE_JS))
             app.watch.toggle()
+            smooth = _smooth_player_rates(driver, app, repeats)
     finally:
         app.close()
-    a, b = statistics.median(playing), statistics.median(idle)
+    a, b, c = statistics.median(playing), statistics.median(idle), statistics.median(smooth)
     print(f"live Watch tab in headless chromium (software WebGL), {count} run(s) playing: "
           f"{a:.1f} frames/s; the same page paused {b:.1f} frames/s: ratio {a / b:.2f}")
+    print(f"Watch's smooth player (the HTML replays' player in the panel), {count} run(s) "
+          f"playing: {c:.1f} frames/s: ratio {c / b:.2f} to the paused page")
+
+
+def _smooth_player_rates(driver, app: Gui, repeats: int) -> list[float]:
+    """Frame rates counted inside Watch's smooth player while it plays (its frame advancing)."""
+    app.watch.smooth()
+    frame = web.wait(lambda: driver.find_element("id", "ml-player"), "the smooth player")
+    driver.switch_to.frame(frame)
+    try:
+        web.wait(lambda: driver.execute_script("return window.maniplabPlayer"), "the player")
+        time.sleep(1.0)
+        rates = []
+        for _ in range(repeats):
+            first = driver.execute_script("return maniplabPlayer.frame")
+            rates.append(driver.execute_async_script(FRAME_RATE_JS))
+            assert driver.execute_script("return maniplabPlayer.playing"), "not playing"
+            assert driver.execute_script("return maniplabPlayer.frame") != first, "no progress"
+        return rates
+    finally:
+        driver.switch_to.default_content()
 
 
 def main() -> None:

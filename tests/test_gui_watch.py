@@ -87,3 +87,47 @@ def test_a_ghost_over_the_solid_arm_leaves_it_seen(tmp_path: Path) -> None:
                 f"(out/gui-screenshots/watch-*.png): {near_solid.round()} {near_ghost.round()}")
     finally:
         app.close()
+
+
+def test_the_smooth_player_plays_the_ticked_runs_in_the_panel(tmp_path: Path) -> None:
+    """Issue 37, item 5: Watch's smooth player is the HTML replays' player framed in the panel;
+    it holds the ticked runs, plays (its frame advances), and at the replay's end draws the end
+    effector where MuJoCo's site is at the run's last state."""
+    from maniplab.mjcf_gen import names
+
+    spec = ml.load_spec(Path(__file__).parent / "arms" / "excavator.yaml")
+    app = Gui(spec, tmp_path / "ws", port=_port())
+    try:
+        run = ml.simulate(spec, inputs={spec.joints[1].name: ml.signals.step(0.4, t0=0.05)},
+                          duration=0.6, initial={"dP": "gravity"})
+        app.workspace.save_run(run, "dig")
+        app.runs_changed()
+        for box in app.runs.picks.values():
+            box.value = True
+        with web.chromium(1280, 800) as driver:
+            driver.get(app.url)
+            web.text_shown(driver, "hydraulic")
+            web.tab(driver, "Watch")
+            app.watch.smooth()
+            frame = web.wait(lambda: driver.find_element("id", "ml-player"), "the player's frame")
+            driver.switch_to.frame(frame)
+            web.wait(lambda: driver.execute_script("return window.maniplabPlayer"), "the player")
+            assert driver.execute_script("return maniplabPlayer.error || null") is None
+            first = driver.execute_script("return maniplabPlayer.frame")
+            web.wait(lambda: driver.execute_script("return maniplabPlayer.frame") != first,
+                     "the player playing")
+            driver.execute_script("maniplabPlayer.pause(); maniplabPlayer.seek(arguments[0])",
+                                  float(run.t[-1]))
+            model = ml.build_model(spec)
+            data = mujoco.MjData(model)
+            data.qpos[:] = run.q[-1]
+            mujoco.mj_forward(model, data)
+            site = data.site_xpos[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE,
+                                                    names.END_EFFECTOR)]
+            np.testing.assert_allclose(driver.execute_script(
+                "return maniplabPlayer.endEffector(0)"), site, atol=1e-4)
+            driver.switch_to.default_content()
+            web.shot(driver, "watch-smooth-player")
+        assert "the smooth player holds 1 run" in str(app.watch.message.content)
+    finally:
+        app.close()

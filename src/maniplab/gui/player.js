@@ -378,6 +378,12 @@
   play.addEventListener("click", () => setPlaying(!state.playing));
   slider.addEventListener("input", () => seek(meta.t0 + Number(slider.value) / meta.fps));
   speed.addEventListener("change", () => { state.speed = Number(speed.value); });
+  const full = document.getElementById("ml-full");
+  full.hidden = !document.fullscreenEnabled;  // e.g. inside a frame that does not allow it
+  full.addEventListener("click", () => {
+    if (document.fullscreenElement) document.exitFullscreen();
+    else document.documentElement.requestFullscreen();
+  });
   document.addEventListener("keydown", (e) => {
     if (e.key === " " && e.target.tagName !== "SELECT") {
       e.preventDefault();

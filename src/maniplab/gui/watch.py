@@ -42,6 +42,13 @@ class WatchTab:
         self.play_button = gui.add_button("Play")
         self.play_button.on_click(lambda _: self.toggle())
         self.speed = gui.add_dropdown("Speed", SPEEDS, initial_value="1")
+        smooth = gui.add_button(
+            "Smooth player", hint="the ticked runs in maniplab's own WebGL player, here in the "
+            "panel (widen the panel, or ⛶ for full screen): it plays at the page's frame rate "
+            "where the 3D view above is limited by the scene's drawing")
+        smooth.on_click(lambda _: self.smooth())
+        app.job_buttons.append(smooth)
+        self.player = gui.add_html("", visible=False)
         export = gui.add_button("Export HTML replay")
         export.on_click(lambda event: self.export(event.client))
         app.job_buttons.append(export)
@@ -88,6 +95,7 @@ class WatchTab:
             shown = self.replay is not None
             self._clear()
         self.key.content = ""
+        self.player.visible, self.player.content = False, ""
         self._set_arm_visible(True)
         if shown:  # the floor and camera of the arm being configured again
             arm = self.app.configure.arm3d
@@ -143,13 +151,31 @@ class WatchTab:
             return
 
         def work() -> str:
-            return replay_html([self.app.workspace.load_run(n) for n in names], FPS)
+            return replay_html([self.app.workspace.load_run(n) for n in names], FPS, names)
 
         def done(page: str) -> str:
             path = self.app.download(f"replay-{'-'.join(names)}"[:64], ".html", page, client)
             return f"replay written to {path} and sent to the browser"
 
         self.app.jobs.start("exporting the replay", work, done, self._say)
+
+    def smooth(self) -> None:
+        """Show the ticked runs in the player of the HTML replays, framed in the panel."""
+        names = self.app.runs.selected()
+        if not names:
+            self.message.content = warning("tick the runs to play in the Runs tab")
+            return
+
+        def work() -> str:
+            return replay_html([self.app.workspace.load_run(n) for n in names], FPS, names)
+
+        def done(page: str) -> str:
+            self.player.content = _framed(page)
+            self.player.visible = True
+            count = len(names)
+            return f"the smooth player holds {count} run{'s' if count > 1 else ''}"
+
+        self.app.jobs.start("preparing the smooth player", work, done, self._say)
 
     def _say(self, text: str) -> None:
         bad = "failed" in text or "busy" in text or "stopped" in text
@@ -158,6 +184,13 @@ class WatchTab:
     def clear_messages(self) -> None:
         """Hide the tab's message."""
         self.message.content = ""
+
+
+def _framed(page: str) -> str:
+    """An HTML page in a frame as wide as the panel (its own document: its script runs)."""
+    return (f"<iframe id='ml-player' title='smooth player' srcdoc=\"{html.escape(page)}\" "
+            "allow='fullscreen' style='width:100%;height:min(70vh,560px);border:0;"
+            "border-radius:4px'></iframe>")
 
 
 def _key(labels: list[str]) -> str:
