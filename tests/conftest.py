@@ -39,3 +39,16 @@ def pytest_runtest_makereport(item: pytest.Item, call: pytest.CallInfo[None]):  
         report.outcome = "failed"
         report.longrepr = (f"skipped, which the suite does not allow ({reason}); install what it "
                            "needs, or set MANIPLAB_ALLOW_SKIPS=1 to run without it")
+
+
+# The slowest tests first (the identification fits, the sanitizer fuzz, the hostile inputs: each
+# 15 to 85 s): pytest-xdist deals the first tests out to the workers in turn and the rest as they
+# free up, so a long test never starts last while the other worker sits idle. Order within each
+# group is kept (a stable sort).
+_SLOW_FIRST = ("tests/test_identify.py::", "tests/test_sanitize.py::",
+               "tests/test_hostile_inputs.py::", "tests/test_rod_friction.py::",
+               "tests/test_identify_suggest.py::", "tests/test_identify_intervals.py::")
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    items.sort(key=lambda item: not item.nodeid.startswith(_SLOW_FIRST))
