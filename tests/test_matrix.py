@@ -72,7 +72,7 @@ ARMS = _arms()
 
 COMMANDS = ("validate", "info", "export-mjcf", "export-urdf", "model-python", "model-c", "fmu",
             "simulate", "energy", "sweep", "crossval", "tune", "control", "control-pid",
-            "loadchart", "render", "identify", "gui-arm3d", "optimize")
+            "loadchart", "render", "identify", "gui-arm3d", "replay-html", "optimize")
 
 
 FULL = os.environ.get("MANIPLAB_MATRIX") == "full"
@@ -677,6 +677,32 @@ def cell_gui_arm3d(arm: str, work: Path) -> str:
             np.testing.assert_allclose(position, data.geom_xpos[ref], atol=1e-9)
             np.testing.assert_allclose(rotation.ravel(), data.geom_xmat[ref], atol=1e-9)
     return f"{len(view._meshes)} meshes"
+
+
+def cell_replay_html(arm: str, work: Path) -> str:
+    """The HTML replay's player data for a run started at a random pose: at its first frame each
+    drawn geom's pose is MuJoCo's on ``ml.build_model`` (float32), and the page is written."""
+    from maniplab.gui.player import POSE, player_data, replay_html
+
+    spec = spec_of(arm)
+    q = random_pose(spec, 6)
+    run = ml.simulate(spec, duration=0.01, initial={"q": q})
+    meta, blob = player_data([run])
+    _, offset, size = meta["blob"][meta["runs"][0]["arrays"]["poses"]]
+    poses = np.frombuffer(blob, np.float32, size, offset).reshape(meta["frames"], -1, POSE)
+    model = ml.build_model(spec)
+    data = mujoco.MjData(model)
+    data.qpos[:] = run.q[0]
+    mujoco.mj_forward(model, data)
+    quat = np.empty(4)
+    drawn = [g for g in range(model.ngeom) if model.geom_type[g] != mujoco.mjtGeom.mjGEOM_PLANE]
+    assert drawn, "no geometry drawn"
+    for p, geom in enumerate(drawn):
+        np.testing.assert_allclose(poses[0, p, :3], data.geom_xpos[geom], atol=1e-5)
+        mujoco.mju_mat2Quat(quat, data.geom_xmat[geom])
+        assert abs(float(np.dot(poses[0, p, 3:7], quat))) == pytest.approx(1.0, abs=1e-5)
+    assert "window.maniplabPlayer" in replay_html([run])
+    return f"{len(drawn)} geoms, {len(meta['runs'][0]['parts']) - len(drawn)} cylinder parts"
 
 
 CELLS: dict[str, Callable[[str, Path], str]] = {
