@@ -242,3 +242,19 @@ def test_dragging_orbits_and_the_wheel_zooms(driver: Any, tmp_path: Path) -> Non
     ActionChains(driver).scroll_from_origin(
         ScrollOrigin.from_element(canvas), 0, -300).perform()
     web.wait(lambda: apart() > 1.2 * span, "the view zoomed in")
+
+
+def test_a_run_named_with_markup_is_shown_as_text(driver: Any, tmp_path: Path) -> None:
+    """A run's name that closes the script and opens another is data in the page: the key
+    shows the name as it is, and no script of it runs."""
+    spec = ml.load_spec(ARMS / "excavator.yaml")
+    name = "<!--<script></script><script>window.pwned=1</script>"
+    run = ml.simulate(spec, duration=0.05, label=name)
+    page = tmp_path / "named.html"
+    page.write_text(replay_html([run], names=[name]))
+    assert "window.pwned=1</script>" not in page.read_text()
+    driver.get(page.as_uri())
+    web.wait(lambda: driver.execute_script("return window.maniplabPlayer"), "the player")
+    assert driver.execute_script("return window.pwned || null") is None
+    key = driver.find_element("id", "ml-key").text
+    assert name in key

@@ -268,6 +268,6 @@ def replay_html(runs: Sequence[Run], fps: float = 30.0,
     data = base64.b64encode(zlib.compress(blob, 6)).decode("ascii")
     title = " vs ".join(r["label"] for r in meta["runs"])
     return (page.replace("{{TITLE}}", html.escape(f"maniplab replay: {title}"))
-            .replace("{{META}}", json.dumps(meta).replace("</", "<\\/"))
+            .replace("{{META}}", json.dumps(meta).replace("<", "\\u003c"))  # no tag in it
             .replace("{{DATA}}", data)
             .replace("{{SCRIPT}}", script.replace("</script", "<\\/script")))
