@@ -1,4 +1,5 @@
-"""The GUI: start-up time and replay frame rate, each as a ratio against a peer in the same run.
+"""The GUI: start-up time, edit latency and replay frame rate, each as a ratio against a peer in
+the same run.
 
 Run: .venv/bin/python benchmarks/bench_gui.py [--repeats 5]   (needs chromium and chromedriver)
 
@@ -8,6 +9,9 @@ Printed (medians over the repeats):
   erector) ready to serve, against a bare ``viser.ViserServer()`` (the peer); and the page in
   headless chromium until the joint table shows, against the bare viser page until its canvas
   shows.
+* edit latency: a body mass typed in Configure, from the last keystroke to the joint table
+  showing it (clocked in the page), against a plain text field's value reaching the server
+  (``--only edit``).
 * replay, server side: frames per second at which the Watch tab poses the erector (one run, and
   three runs as ghosts), against MuJoCo's offscreen renderer drawing the same run's frames
   (``ml.render``, 640x360, the videos' path; the peer).
@@ -17,7 +21,8 @@ Printed (medians over the repeats):
   empty viser scene (``--only html`` runs this part alone).
 * the live Watch tab, browser side: frames per second the GUI's page draws in headless chromium
   (software WebGL) while the server plays two erector runs (one solid, one ghost) at 30 frames/s,
-  against the same page with the replay shown and paused (``--only watch``).
+  against the same page with the replay shown and paused; and Watch's smooth player (the HTML
+  replays' player in the panel) playing the same runs (``--only watch``).
 """
 
 from __future__ import annotations
@@ -265,14 +270,70 @@ def _smooth_player_rates(driver, app: Gui, repeats: int) -> list[float]:
         driver.switch_to.default_content()
 
 
+EDIT_CLOCKS_JS = """
+window.mlTyped = null; window.mlShown = null;
+document.addEventListener('input', () => { if (window.mlShown === null) window.mlTyped = Date.now(); },
+                          true);
+const want = arguments[0];
+if (want !== null) {
+  const seen = () => { const t = document.getElementById('ml-joints');
+                       return t !== null && t.textContent.includes(want); };
+  new MutationObserver((_, observer) => {
+    if (window.mlTyped !== null && window.mlShown === null && seen()) {
+      window.mlShown = Date.now(); observer.disconnect(); } })
+    .observe(document.body, {childList: true, subtree: true, characterData: true});
+}
+"""
+"""Page-side clocks of an edit: the last keystroke typed into a field (its input event), and when
+the joint table first showed the value ``arguments[0]`` (null: only the keystrokes)."""
+
+
+def edit_latency(repeats: int) -> None:
+    """A valid edit typed in the page (a body mass in Configure): from its last keystroke to the
+    joint table showing the new value, clocked in the page; against the same typing in a plain text
+    field (Simulate's run name) from its last keystroke to the server holding the value (viser's
+    round trip: the peer; the page's and the server's clocks are the same machine's)."""
+    spec = ml.builtin_spec("erector")
+    app = Gui(spec, tempfile.mkdtemp(), port=_port())
+    held: list[float] = []
+    app.simulate.name.on_update(lambda _: held.append(time.time()))
+    ours, peer = [], []
+    try:
+        with web.chromium() as driver:
+            driver.get(app.url)
+            web.wait(lambda: web.visible(driver, "//table[@id='ml-joints']"), "the table")
+            for k in range(repeats):
+                mass = f"{1800 + k}"
+                driver.execute_script(EDIT_CLOCKS_JS, mass)
+                web.type_into(driver, "Body mass [kg]", mass)
+                shown = web.wait(lambda: driver.execute_script("return window.mlShown"),
+                                 "the table")
+                ours.append((shown - driver.execute_script("return window.mlTyped")) / 1000.0)
+            web.tab(driver, "Simulate")
+            for k in range(repeats):
+                driver.execute_script(EDIT_CLOCKS_JS, None)
+                held.clear()
+                web.type_into(driver, "Run name", f"run{k}")
+                web.wait(lambda n=f"run{k}": app.simulate.name.value == n, "the server")
+                typed = driver.execute_script("return window.mlTyped") / 1000.0
+                peer.append(max(held[-1] - typed, 0.0))
+    finally:
+        app.close()
+    a, b = statistics.median(ours), statistics.median(peer)
+    print(f"edit to the joint table (last keystroke to the value shown): {a * 1000:.0f} ms; a text field "
+          f"to the server (last keystroke to its callback): {b * 1000:.0f} ms: ratio {a / max(b, 1e-3):.1f}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=5)
-    parser.add_argument("--only", choices=("startup", "replay", "html", "watch"),
+    parser.add_argument("--only", choices=("startup", "edit", "replay", "html", "watch"),
                         help="run only this part")
     args = parser.parse_args()
     if args.only in (None, "startup"):
         startup(args.repeats)
+    if args.only in (None, "edit"):
+        edit_latency(args.repeats)
     if args.only in (None, "replay"):
         replay_rates(args.repeats)
     if args.only == "html":
