@@ -21,7 +21,10 @@ def cylinder_parts(segment: np.ndarray, cylinder: Any) -> list[tuple[np.ndarray,
     """Where a pinned cylinder's barrel and rod are drawn when its pins are at ``segment`` (parent
     pin, child pin; m): (start, rotation wxyz of z onto the pin line, scale (radius, radius,
     length)) of each. The barrel starts at the parent pin, as long as the retracted cylinder less
-    a tenth; the rod runs from the child pin back into it, so it slides out with the stroke."""
+    a tenth; the rod runs from the child pin back into it, as long as the stroke plus that tenth
+    (its end reaches the barrel's mouth at full stroke), so it slides out with the stroke and
+    keeps its length (a renderer need not rebuild it), shortened only where the pins come closer
+    than that."""
     start, end = (np.asarray(p, dtype=float) for p in segment)
     axis = end - start
     length = float(np.linalg.norm(axis))
@@ -31,7 +34,7 @@ def cylinder_parts(segment: np.ndarray, cylinder: Any) -> list[tuple[np.ndarray,
     barrel_length = min(0.9 * float(cylinder.min_length), length)
     barrel_radius = 0.65 * float(cylinder.bore)  # the tube's wall around the bore
     rod_radius = 0.5 * float(cylinder.rod)
-    rod_length = max(length - 0.5 * barrel_length, 1e-9)  # from the child pin into the barrel
+    rod_length = max(min(float(cylinder.stroke) + 0.1 * float(cylinder.min_length), length), 1e-9)
     rotation = _z_onto(direction)
     return [(start, rotation, (barrel_radius, barrel_radius, barrel_length)),
             (end, _z_onto(-direction), (rod_radius, rod_radius, rod_length))]
