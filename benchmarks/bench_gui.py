@@ -1,5 +1,4 @@
-"""The GUI: start-up time, edit latency and replay frame rate, each as a ratio against a peer in
-the same run.
+"""The GUI's start-up, edit latency and replay frame rates, each against a peer in the same run.
 
 Run: .venv/bin/python benchmarks/bench_gui.py [--repeats 5]   (needs chromium and chromedriver)
 

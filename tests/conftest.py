@@ -9,6 +9,7 @@ failures; keep one that turns up as an explicit ``@example``."""
 from __future__ import annotations
 
 import os
+from collections.abc import Iterator
 
 import pytest
 from hypothesis import settings
@@ -39,6 +40,22 @@ def pytest_runtest_makereport(item: pytest.Item, call: pytest.CallInfo[None]):  
         report.outcome = "failed"
         report.longrepr = (f"skipped, which the suite does not allow ({reason}); install what it "
                            "needs, or set MANIPLAB_ALLOW_SKIPS=1 to run without it")
+
+
+@pytest.fixture(scope="module")
+def offscreen_gl() -> Iterator[None]:
+    """Offscreen rendering for a video test module: MUJOCO_GL as the user set it, else egl (as the
+    CLI does). A machine where no backend starts skips the module, which the suite counts as a
+    failure unless MANIPLAB_ALLOW_SKIPS=1 (above): `make test` installs Mesa's EGL."""
+    from maniplab.viz.gl import RenderError, open_context
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv("MUJOCO_GL", os.environ.get("MUJOCO_GL") or "egl")
+        try:
+            open_context(16, 16).free()
+        except RenderError as exc:
+            pytest.skip(f"no OpenGL backend: {exc}")
+        yield
 
 
 # The slowest tests first (the identification fits, the sanitizer fuzz, the hostile inputs: each

@@ -23,6 +23,19 @@ def _pixels(driver, name: str, points: np.ndarray) -> np.ndarray:
                      .mean(axis=0) for x, y in points])
 
 
+def _watching(driver, app: Gui, runs: dict[str, ml.Run]) -> None:
+    """Store ``runs`` (name -> run) in the GUI's workspace, tick them, open the page at the
+    Watch tab."""
+    for name, run in runs.items():
+        app.workspace.save_run(run, name)
+    app.runs_changed()
+    for box in app.runs.picks.values():
+        box.value = True
+    driver.get(app.url)
+    web.text_shown(driver, "hydraulic")
+    web.tab(driver, "Watch")
+
+
 def test_a_ghost_over_the_solid_arm_leaves_it_seen(tmp_path: Path) -> None:
     """Issue 37, item 4: a ghost run drawn exactly over the solid one (the same run twice) is
     translucent: at the projections of the solid arm's geoms the page shows colours nearer to
@@ -33,15 +46,8 @@ def test_a_ghost_over_the_solid_arm_leaves_it_seen(tmp_path: Path) -> None:
     try:
         run = ml.simulate(spec, inputs={"q2": ml.signals.step(0.5, t0=0.05)}, duration=0.5,
                           initial={"dP": "gravity"})
-        for name in ("solid", "ghost"):
-            app.workspace.save_run(run, name)
-        app.runs_changed()
-        for box in app.runs.picks.values():
-            box.value = True
         with web.chromium(1280, 800) as driver:
-            driver.get(app.url)
-            web.text_shown(driver, "hydraulic")
-            web.tab(driver, "Watch")
+            _watching(driver, app, {"solid": run, "ghost": run})
             app.watch.show()
             replay = app.watch.replay
             assert replay is not None and len(replay.arms) == 2
@@ -100,14 +106,8 @@ def test_the_smooth_player_plays_the_ticked_runs_in_the_panel(tmp_path: Path) ->
     try:
         run = ml.simulate(spec, inputs={spec.joints[1].name: ml.signals.step(0.4, t0=0.05)},
                           duration=0.6, initial={"dP": "gravity"})
-        app.workspace.save_run(run, "dig")
-        app.runs_changed()
-        for box in app.runs.picks.values():
-            box.value = True
         with web.chromium(1280, 800) as driver:
-            driver.get(app.url)
-            web.text_shown(driver, "hydraulic")
-            web.tab(driver, "Watch")
+            _watching(driver, app, {"dig": run})
             app.watch.smooth()
             frame = web.wait(lambda: driver.find_element("id", "ml-player"), "the player's frame")
             driver.switch_to.frame(frame)

@@ -13,8 +13,7 @@ antialiasing), runs a few frames long.
 from __future__ import annotations
 
 import math
-import os
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from pathlib import Path
 
 import mujoco
@@ -27,7 +26,6 @@ from maniplab.viz import palette
 from maniplab.viz.arm import ArmView
 from maniplab.viz.camera import Framing
 from maniplab.viz.cylinders import BARREL, ROD
-from maniplab.viz.gl import RenderError, open_context
 from maniplab.viz.look import Look
 from maniplab.viz.render import SingleRun
 
@@ -36,16 +34,7 @@ ARMS = Path(__file__).parent / "arms"
 SIDE = np.array([0.25, -1.0, 0.15])  # from the side of the arm's plane (its pins are at y = 0)
 
 
-@pytest.fixture(scope="module", autouse=True)
-def gl() -> Iterator[None]:
-    """MUJOCO_GL as the user set it, else egl (as the CLI does); skip when no backend starts."""
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setenv("MUJOCO_GL", os.environ.get("MUJOCO_GL") or "egl")
-        try:
-            open_context(16, 16).free()
-        except RenderError as exc:
-            pytest.skip(f"no OpenGL backend: {exc}")
-        yield
+pytestmark = pytest.mark.usefixtures("offscreen_gl")
 
 
 def teal(pixels: np.ndarray) -> np.ndarray:

@@ -9,8 +9,6 @@ small (160x120) and runs short, so the module takes seconds.
 from __future__ import annotations
 
 import itertools
-import os
-from collections.abc import Iterator
 from pathlib import Path
 
 import imageio.v3 as iio
@@ -23,23 +21,14 @@ from maniplab import viz
 from maniplab.cli import main
 from maniplab.friction.modes import FrictionMode
 from maniplab.sim.run import Run
-from maniplab.viz.gl import RenderError, open_context
+from maniplab.viz.gl import RenderError
 from maniplab.viz.render import strip_height
 
 RATE = 100.0  # samples per second of the hand-made runs
 W, H = 160, 120
 
 
-@pytest.fixture(scope="module", autouse=True)
-def gl() -> Iterator[None]:
-    """MUJOCO_GL as the user set it, else egl (as the CLI does); skip when no backend starts."""
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setenv("MUJOCO_GL", os.environ.get("MUJOCO_GL") or "egl")
-        try:
-            open_context(16, 16).free()
-        except RenderError as exc:
-            pytest.skip(f"no OpenGL backend: {exc}")
-        yield
+pytestmark = pytest.mark.usefixtures("offscreen_gl")
 
 
 def scripted(spec_name: str, q_of_t, duration: float, *, modes: dict | None = None,

@@ -24,14 +24,13 @@ import mujoco
 import numpy as np
 import trimesh
 
-from maniplab.errors import ManiplabError
 from maniplab.gui.arm3d import geom_mesh
-from maniplab.gui.replay import MAX_FRAMES, ReplayError, framing
+from maniplab.gui.replay import ReplayError, framing, replay_frames
 from maniplab.sim.run import Run
 from maniplab.viz import palette
 from maniplab.viz.arm import ArmView
 from maniplab.viz.cylinders import BARREL, ROD, cylinder_parts, pinned_cylinders, tendon_segments
-from maniplab.viz.timeline import Motion, frame_times, run_span, sample
+from maniplab.viz.timeline import Motion, sample
 
 POSE = 8
 """Floats per part per frame: position (3, m), rotation quaternion (w, x, y, z), length scale."""
@@ -205,14 +204,7 @@ def player_data(runs: Sequence[Run], fps: float = 30.0,
             :data:`~maniplab.gui.replay.MAX_FRAMES`).
         labels: each run's name in the key (default: the runs' labels).
     """
-    if not runs:
-        raise ReplayError("no runs to replay: select at least one")
-    try:
-        t0, t1 = run_span(list(runs))
-    except ManiplabError as exc:
-        raise ReplayError(str(exc)) from None
-    fps = min(fps, (MAX_FRAMES - 1) / max(t1 - t0, 1e-9))
-    times = frame_times(t0, t1, fps)
+    fps, times = replay_frames(runs, fps)
     scene = _Scene()
     tracks = [_RunTrack(scene, sample(run, times), None if k == 0 else palette.run_colour(k))
               for k, run in enumerate(runs)]

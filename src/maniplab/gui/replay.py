@@ -49,15 +49,7 @@ class Replay:
 
     def __init__(self, scene: Any, runs: Sequence[Run], fps: float = 30.0,
                  prefix: str = "/replay") -> None:
-        if not runs:
-            raise ReplayError("no runs to replay: select at least one")
-        try:
-            t0, t1 = run_span(list(runs))
-        except ManiplabError as exc:
-            raise ReplayError(str(exc)) from None
-        fps = min(fps, (MAX_FRAMES - 1) / max(t1 - t0, 1e-9))
-        self.fps = fps
-        self.times = frame_times(t0, t1, fps)
+        self.fps, self.times = replay_frames(runs, fps)
         self.motions: list[Motion] = [sample(run, self.times) for run in runs]
         self.arms = [Arm3D(scene, f"{prefix}/run{k}", run.spec,
                            tint=None if k == 0 else palette.run_colour(k))
@@ -97,6 +89,19 @@ class Replay:
             arm.remove()
         for path in self.paths:
             path.remove()
+
+
+def replay_frames(runs: Sequence[Run], fps: float) -> tuple[float, np.ndarray]:
+    """The frame rate (``fps``, 1/s, lowered so that at most :data:`MAX_FRAMES`) and the frame
+    times, s, shape (F,), of a replay of ``runs``; ReplayError when there is none to replay."""
+    if not runs:
+        raise ReplayError("no runs to replay: select at least one")
+    try:
+        t0, t1 = run_span(list(runs))
+    except ManiplabError as exc:
+        raise ReplayError(str(exc)) from None
+    fps = min(fps, (MAX_FRAMES - 1) / max(t1 - t0, 1e-9))
+    return fps, frame_times(t0, t1, fps)
 
 
 def _end_effector(arm: Arm3D, motion: Motion) -> np.ndarray:

@@ -11,6 +11,7 @@ from __future__ import annotations
 import html
 import threading
 import time
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from maniplab.errors import ManiplabError
@@ -145,37 +146,36 @@ class WatchTab:
     def export(self, client: Any = None) -> None:
         """Write the ticked runs' replay as an offline HTML page and send it to ``client`` (the
         page that asked)."""
-        names = self.app.runs.selected()
-        if not names:
-            self.message.content = warning("tick the runs to export in the Runs tab")
-            return
 
-        def work() -> str:
-            return replay_html([self.app.workspace.load_run(n) for n in names], FPS, names)
-
-        def done(page: str) -> str:
+        def done(names: list[str], page: str) -> str:
             path = self.app.download(f"replay-{'-'.join(names)}"[:64], ".html", page, client)
             return f"replay written to {path} and sent to the browser"
 
-        self.app.jobs.start("exporting the replay", work, done, self._say)
+        self._ticked_replay("export", "exporting the replay", done)
 
     def smooth(self) -> None:
         """Show the ticked runs in the player of the HTML replays, framed in the panel."""
-        names = self.app.runs.selected()
-        if not names:
-            self.message.content = warning("tick the runs to play in the Runs tab")
-            return
 
-        def work() -> str:
-            return replay_html([self.app.workspace.load_run(n) for n in names], FPS, names)
-
-        def done(page: str) -> str:
+        def done(names: list[str], page: str) -> str:
             self.player.content = _framed(page)
             self.player.visible = True
             count = len(names)
             return f"the smooth player holds {count} run{'s' if count > 1 else ''}"
 
-        self.app.jobs.start("preparing the smooth player", work, done, self._say)
+        self._ticked_replay("play", "preparing the smooth player", done)
+
+    def _ticked_replay(self, verb: str, job: str, done: Callable[[list[str], str], str]) -> None:
+        """Make the ticked runs' HTML replay in a job named ``job``, then ``done(names, page)``
+        says what became of it; with no run ticked, ask to tick the runs to ``verb``."""
+        names = self.app.runs.selected()
+        if not names:
+            self.message.content = warning(f"tick the runs to {verb} in the Runs tab")
+            return
+
+        def work() -> str:
+            return replay_html([self.app.workspace.load_run(n) for n in names], FPS, names)
+
+        self.app.jobs.start(job, work, lambda page: done(names, page), self._say)
 
     def _say(self, text: str) -> None:
         bad = "failed" in text or "busy" in text or "stopped" in text
