@@ -258,3 +258,28 @@ def test_a_run_named_with_markup_is_shown_as_text(driver: Any, tmp_path: Path) -
     assert driver.execute_script("return window.pwned || null") is None
     key = driver.find_element("id", "ml-key").text
     assert name in key
+
+
+def test_the_player_draws_again_after_the_gpu_takes_its_context_away(
+        driver: Any, tmp_path: Path) -> None:
+    """A lost WebGL context (a GPU reset) is asked back, and once restored the page starts again
+    and draws the arm where MuJoCo puts it."""
+    spec = ml.builtin_spec("patu655")
+    runs = _runs(spec)
+    _open(driver, tmp_path / "replay.html", runs)
+    driver.execute_script("""
+        const gl = document.getElementById('ml-view').getContext('webgl');
+        window.mlLoser = gl.getExtension('WEBGL_lose_context');
+        window.mlLoser.loseContext();""")
+    web.wait(lambda: driver.execute_script(
+        "return document.getElementById('ml-view').getContext('webgl').isContextLost()"),
+        "the context lost")
+    driver.execute_script("window.mlLoser.restoreContext()")
+    web.wait(lambda: driver.execute_script("return window.mlLoser === undefined"),
+             "the page started again")
+    web.wait(lambda: driver.execute_script("return window.maniplabPlayer"), "the player again")
+    driver.execute_script("maniplabPlayer.pause()")
+    image = _seek(driver, 0.5, "player-restored")
+    model, data = _mujoco(spec, runs[0], 0.5)
+    j, geom = _links(spec, model)[0]
+    assert _shows(image, _project(driver, data.geom_xpos[geom]), palette.link_colour(j))

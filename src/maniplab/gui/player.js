@@ -80,6 +80,11 @@
   const canvas = document.getElementById("ml-view");
   const gl = canvas.getContext("webgl", { antialias: !softwareGL(), alpha: false });
   if (!gl) throw new Error("this browser has no WebGL");
+  // A GPU reset (a driver's, or a software rasteriser's process stopped by its watchdog on a
+  // loaded machine) takes the context away: ask for it back, and start the page again with it
+  // (every buffer is made at the start; the page holds all its data).
+  canvas.addEventListener("webglcontextlost", (e) => e.preventDefault());
+  canvas.addEventListener("webglcontextrestored", () => location.reload());
   if (!gl.getExtension("OES_element_index_uint")) throw new Error("WebGL lacks 32-bit indices");
 
   function softwareGL() { // a CPU rasteriser (SwiftShader, llvmpipe): no multisampling, it
